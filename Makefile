@@ -1,0 +1,37 @@
+# Two commands for a newcomer: `make demo` and `make test`. Each creates .venv (python3 -m venv) and
+# installs the package with its extras once; the stamp is keyed on the content of pyproject.toml, so a
+# second run does not reinstall, and an edited pyproject.toml does.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-$(shell sha1sum pyproject.toml | cut -c1-12)
+PYTEST_ARGS ?=
+DEMO_ARGS ?= --preset quick
+BENCH_ARGS ?= --preset quick
+
+.PHONY: demo test bench install clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test,bench]'
+	rm -f $(VENV)/.installed-*
+	touch $@
+
+demo: $(STAMP)
+	$(PY) -m experiments.demo $(DEMO_ARGS)
+
+test: $(STAMP)
+	$(PY) -m pytest $(PYTEST_ARGS)
+
+bench: $(STAMP)
+	@set -e; for f in experiments/bench/bench_*.py; do \
+		[ -e "$$f" ] || { echo "no benchmarks yet"; break; }; \
+		m=$$(echo "$$f" | sed 's#/#.#g; s#\.py$$##'); \
+		echo "== $$m"; $(PY) -m "$$m" $(BENCH_ARGS); \
+	done
+
+clean:
+	rm -rf $(VENV) runs .pytest_cache

@@ -1,0 +1,212 @@
+"""Frozen-dataclass configs as command-line flags, and the output folder every experiment writes.
+
+An experiment declares a frozen dataclass (with a `seed: int` field) and its presets::
+
+    @dataclasses.dataclass(frozen=True)
+    class Config:
+        seed: int = 0
+        n_worlds: int = 64
+
+    PRESETS = {"quick": {"n_worlds": 8}, "paper": {}}
+    cfg, run = parse_config(Config, PRESETS, name="demo")
+
+The command line then accepts `--preset quick|paper` (default quick), `--out DIR` (default
+`runs/<name>/<timestamp>`), `--seed S` and one `--field-name value` per field. Values resolve as
+field default < preset < explicit flag. `run` is a `RunOutput` that writes `config.json`,
+`metrics.json`, `report.md` and figures into the output folder.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime as _dt
+import json
+import math
+import numbers
+import types
+import typing
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+from tqdm.auto import tqdm
+
+C = TypeVar("C")
+_TUPLE_SEP = ","
+
+
+def _field_parser(annotation: Any, field_name: str):
+    """Return (argparse type callable, nargs-free) for a dataclass field annotation."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if len(args) != 1:
+            raise TypeError(f"config field {field_name!r}: unions other than Optional[T] are not supported")
+        inner = _field_parser(args[0], field_name)
+
+        def parse_optional(text: str):
+            return None if text.lower() == "none" else inner(text)
+
+        return parse_optional
+    if origin is tuple:
+        args = typing.get_args(annotation)
+        elem = args[0] if args else str
+        elem_parse = _field_parser(elem, field_name)
+
+        def parse_tuple(text: str):
+            return tuple(elem_parse(part.strip()) for part in text.split(_TUPLE_SEP) if part.strip())
+
+        return parse_tuple
+    if annotation is bool:
+        return _parse_bool
+    if annotation in (int, float, str):
+        return annotation
+    if isinstance(annotation, type) and issubclass(annotation, Path):
+        return Path
+    raise TypeError(f"config field {field_name!r}: unsupported type {annotation!r}")
+
+
+def _parse_bool(text: str) -> bool:
+    low = text.lower()
+    if low in ("1", "true", "yes", "on"):
+        return True
+    if low in ("0", "false", "no", "off"):
+        return False
+    raise argparse.ArgumentTypeError(f"expected true/false, got {text!r}")
+
+
+def _flag(field_name: str) -> str:
+    return "--" + field_name.replace("_", "-")
+
+
+def build_parser(config_cls: type, presets: Mapping[str, Mapping[str, Any]], name: str, description: str | None = None):
+    """An `argparse.ArgumentParser` with --preset, --out and one flag per config field."""
+    if not (dataclasses.is_dataclass(config_cls) and config_cls.__dataclass_params__.frozen):
+        raise TypeError(f"{config_cls!r} must be a frozen dataclass")
+    hints = typing.get_type_hints(config_cls)
+    fields = dataclasses.fields(config_cls)
+    if "seed" not in {f.name for f in fields}:
+        raise TypeError(f"{config_cls.__name__} must have a `seed: int` field")
+    for preset, values in presets.items():
+        unknown = set(values) - {f.name for f in fields}
+        if unknown:
+            raise TypeError(f"preset {preset!r} sets unknown fields {sorted(unknown)}")
+    parser = argparse.ArgumentParser(
+        prog=f"python -m experiments.{name}",
+        description=description or (config_cls.__doc__ or "").strip(),
+    )
+    default_preset = "quick" if "quick" in presets else None
+    parser.add_argument("--preset", choices=sorted(presets), default=default_preset,
+                        help=f"named set of field values; explicit flags override it (default {default_preset})")
+    parser.add_argument("--out", type=Path, default=None,
+                        help=f"output folder (default: runs/{name}/<timestamp>)")
+    defaults = config_cls()
+    for field in fields:
+        parse = _field_parser(hints[field.name], field.name)
+        default = getattr(defaults, field.name)
+        shown = _TUPLE_SEP.join(map(str, default)) if isinstance(default, tuple) else default
+        preset_note = "; ".join(f"{p}: {v[field.name]}" for p, v in presets.items() if field.name in v)
+        help_text = f"default {shown}" + (f" ({preset_note})" if preset_note else "")
+        parser.add_argument(_flag(field.name), dest=field.name, type=parse, default=argparse.SUPPRESS,
+                            metavar=field.name.upper(),
+                            help=help_text)
+    return parser
+
+
+def resolve_config(config_cls: type[C], presets: Mapping[str, Mapping[str, Any]], preset: str | None,
+                   overrides: Mapping[str, Any]) -> C:
+    """Field defaults, then the preset's values, then `overrides`."""
+    values: dict[str, Any] = {}
+    if preset is not None:
+        if preset not in presets:
+            raise ValueError(f"preset: expected one of {sorted(presets)}, got {preset!r}")
+        values.update(presets[preset])
+    values.update(overrides)
+    return dataclasses.replace(config_cls(), **values)
+
+
+def parse_config(config_cls: type[C], presets: Mapping[str, Mapping[str, Any]], name: str,
+                 argv: Sequence[str] | None = None, description: str | None = None) -> tuple[C, "RunOutput"]:
+    """Parse the command line into a config and an output folder (created, with `config.json`)."""
+    parser = build_parser(config_cls, presets, name, description)
+    args = vars(parser.parse_args(argv))
+    preset = args.pop("preset")
+    out = args.pop("out")
+    try:
+        cfg = resolve_config(config_cls, presets, preset, args)
+    except ValueError as err:  # a config's __post_init__ validation
+        parser.error(str(err))
+    if out is None:
+        out = Path("runs") / name / _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    run = RunOutput(Path(out), name)
+    run.write_json("config.json", {"experiment": name, "preset": preset, **dataclasses.asdict(cfg)})
+    return cfg, run
+
+
+def _json_value(key: str, value: Any) -> Any:
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        value = float(value)
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, str) or value is None:
+        return value
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return _json_value(key, value.item())
+    raise ValueError(f"metrics[{key!r}]: expected a scalar (flat keys, units in the name), got {type(value).__name__}")
+
+
+class RunOutput:
+    """The output folder of one run: `metrics.json`, `report.md`, figures and other files."""
+
+    def __init__(self, path: Path, name: str):
+        self.path = Path(path)
+        self.name = name
+        self.path.mkdir(parents=True, exist_ok=True)
+
+    def file(self, filename: str) -> Path:
+        return self.path / filename
+
+    def write_json(self, filename: str, data: Any) -> Path:
+        target = self.file(filename)
+        target.write_text(json.dumps(data, indent=2, sort_keys=True, default=str) + "\n")
+        return target
+
+    def write_metrics(self, metrics: Mapping[str, Any]) -> Path:
+        """Write flat scalar metrics (NaN/inf are stored as strings so the JSON stays valid)."""
+        return self.write_json("metrics.json", {k: _json_value(k, v) for k, v in metrics.items()})
+
+    def write_report(self, markdown: str) -> Path:
+        target = self.file("report.md")
+        target.write_text(markdown.rstrip() + "\n")
+        return target
+
+    def save_figure(self, fig, filename: str, dpi: int = 120) -> Path:
+        """Save a matplotlib figure as PNG under the run folder and close it."""
+        import matplotlib.pyplot as plt
+
+        target = self.file(filename)
+        fig.savefig(target, dpi=dpi, bbox_inches="tight")
+        plt.close(fig)
+        return target
+
+
+def progress(iterable: Iterable | None = None, desc: str = "", total: int | None = None, **kwargs):
+    """A tqdm progress bar on stderr for long loops (silent when `LFD_NO_PROGRESS` is set)."""
+    import os
+
+    return tqdm(iterable, desc=desc, total=total, disable=bool(os.environ.get("LFD_NO_PROGRESS")),
+                dynamic_ncols=True, **kwargs)
+
+
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    """A GitHub-flavoured markdown table; floats are shown with 4 significant digits."""
+    def cell(v: Any) -> str:
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
+    return "\n".join(lines)

@@ -1,0 +1,125 @@
+"""Validation of user input at public boundaries (numpy in, outside jitted code).
+
+Each check raises `ValueError` whose message starts with the argument's name and says what was
+expected and what was given, so bad input never turns into a silent NaN or an XLA crash.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+ShapeSpec = Sequence[int | str | None]
+
+
+def _fmt_shape(spec: ShapeSpec) -> str:
+    return "(" + ", ".join("?" if s is None else str(s) for s in spec) + (",)" if len(spec) == 1 else ")")
+
+
+def as_array(
+    value: Any,
+    name: str,
+    *,
+    shape: ShapeSpec | None = None,
+    ndim: int | Iterable[int] | None = None,
+    dtype: Any = np.float64,
+    finite: bool = True,
+    nonempty: bool = True,
+    min_value: float | None = None,
+    max_value: float | None = None,
+) -> np.ndarray:
+    """Convert `value` to a numpy array of `dtype` and check it, or raise `ValueError` naming `name`.
+
+    shape: expected shape; an int entry must match exactly, a str entry (e.g. "T") or None matches
+        any size. A str used twice must have the same size at both places.
+    ndim: allowed number of dimensions (an int or several), when `shape` is not given.
+    dtype: target dtype (None keeps the input's). Integer targets reject non-integral floats.
+    finite: reject NaN and +-inf. nonempty: reject arrays with a zero-sized axis.
+    min_value / max_value: inclusive bounds on every element.
+    """
+    try:
+        raw = np.asarray(value)
+    except Exception as err:  # ragged nested lists and the like
+        raise ValueError(f"{name}: cannot be converted to an array ({err})") from err
+    if raw.dtype == object:
+        raise ValueError(f"{name}: expected a numeric array, got a ragged or object array")
+    if dtype is not None:
+        target = np.dtype(dtype)
+        if np.issubdtype(target, np.integer) and np.issubdtype(raw.dtype, np.floating):
+            if not np.all(np.isfinite(raw)) or not np.all(raw == np.round(raw)):
+                raise ValueError(f"{name}: expected integers, got non-integral values")
+        if not (np.issubdtype(raw.dtype, np.number) or raw.dtype == bool):
+            raise ValueError(f"{name}: expected a numeric array, got dtype {raw.dtype}")
+        arr = raw.astype(target, copy=False)
+    else:
+        arr = raw
+    if shape is not None:
+        sizes: dict[str, int] = {}
+        ok = arr.ndim == len(shape)
+        if ok:
+            for want, got in zip(shape, arr.shape):
+                if isinstance(want, int) and want != got:
+                    ok = False
+                elif isinstance(want, str):
+                    if sizes.setdefault(want, got) != got:
+                        ok = False
+        if not ok:
+            raise ValueError(f"{name}: expected shape {_fmt_shape(shape)}, got {arr.shape}")
+    elif ndim is not None:
+        allowed = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+        if arr.ndim not in allowed:
+            want = " or ".join(str(n) for n in allowed)
+            raise ValueError(f"{name}: expected a {want}-D array, got shape {arr.shape}")
+    if nonempty and arr.size == 0:
+        raise ValueError(f"{name}: must not be empty, got shape {arr.shape}")
+    if finite and np.issubdtype(arr.dtype, np.inexact) and not np.all(np.isfinite(arr)):
+        bad = int(np.size(arr) - np.count_nonzero(np.isfinite(arr)))
+        raise ValueError(f"{name}: contains {bad} NaN or infinite value(s)")
+    if arr.size and min_value is not None and np.min(arr) < min_value:
+        raise ValueError(f"{name}: values must be >= {min_value}, got min {np.min(arr)}")
+    if arr.size and max_value is not None and np.max(arr) > max_value:
+        raise ValueError(f"{name}: values must be <= {max_value}, got max {np.max(arr)}")
+    return arr
+
+
+def check_int(value: Any, name: str, *, min_value: int | None = None, max_value: int | None = None) -> int:
+    """Return `value` as an int, or raise `ValueError` if it is not an integer within the bounds."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name}: expected an integer, got {value!r}")
+    value = int(value)
+    if min_value is not None and value < min_value:
+        raise ValueError(f"{name}: must be >= {min_value}, got {value}")
+    if max_value is not None and value > max_value:
+        raise ValueError(f"{name}: must be <= {max_value}, got {value}")
+    return value
+
+
+def check_real(
+    value: Any,
+    name: str,
+    *,
+    min_value: float | None = None,
+    max_value: float | None = None,
+    exclusive_min: bool = False,
+) -> float:
+    """Return `value` as a finite float within the bounds, or raise `ValueError`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: expected a real number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name}: must be finite, got {value}")
+    if min_value is not None and (value <= min_value if exclusive_min else value < min_value):
+        raise ValueError(f"{name}: must be {'>' if exclusive_min else '>='} {min_value}, got {value}")
+    if max_value is not None and value > max_value:
+        raise ValueError(f"{name}: must be <= {max_value}, got {value}")
+    return value
+
+
+def check_choice(value: Any, name: str, choices: Iterable[Any]) -> Any:
+    """Return `value` if it is one of `choices`, else raise `ValueError` listing them."""
+    choices = tuple(choices)
+    if value not in choices:
+        raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
+    return value

@@ -1,0 +1,51 @@
+"""MJCF scenes, written in code so that every model the project simulates is reviewable text."""
+from __future__ import annotations
+
+import numpy as np
+
+from lfd_common import check_int
+
+_TABLE_HEIGHT_M = 0.75
+_OBJECT_COLOURS = ("0.85 0.2 0.2 1", "0.2 0.6 0.85 1", "0.95 0.75 0.2 1", "0.3 0.75 0.35 1")
+
+
+def tabletop_drop_scene(n_objects: int = 3, timestep_s: float = 0.004) -> str:
+    """A table with `n_objects` free spheres and boxes above it, and a fixed camera named "front".
+
+    Each object has one free joint, so `qpos` has 7 entries per object (position, quaternion) in the
+    order the objects are listed: object k's height is `qpos[7 * k + 2]`.
+    """
+    n_objects = check_int(n_objects, "n_objects", min_value=1, max_value=16)
+    bodies = []
+    for k in range(n_objects):
+        x = -0.2 + 0.4 * k / max(n_objects - 1, 1)
+        colour = _OBJECT_COLOURS[k % len(_OBJECT_COLOURS)]
+        geom = (f'<geom type="sphere" size="0.04" rgba="{colour}" mass="0.2"/>' if k % 2 == 0
+                else f'<geom type="box" size="0.035 0.035 0.035" rgba="{colour}" mass="0.2"/>')
+        bodies.append(f'<body name="object{k}" pos="{x:.3f} 0 {_TABLE_HEIGHT_M + 0.3:.3f}">'
+                      f'<freejoint/>{geom}</body>')
+    return f"""<mujoco model="tabletop_drop">
+  <option timestep="{timestep_s}"/>
+  <visual><global offwidth="640" offheight="480"/></visual>
+  <asset>
+    <texture name="grid" type="2d" builtin="checker" rgb1=".55 .55 .6" rgb2=".45 .45 .5" width="256" height="256"/>
+    <material name="grid" texture="grid" texrepeat="6 6"/>
+  </asset>
+  <worldbody>
+    <light pos="0.3 -0.5 2.2" dir="-0.1 0.2 -1" diffuse="0.8 0.8 0.8"/>
+    <camera name="front" pos="0 -0.95 1.5" xyaxes="1 0 0 0 0.7 0.714"/>
+    <geom name="floor" type="plane" size="2 2 0.1" material="grid"/>
+    <geom name="table" type="box" pos="0 0 {_TABLE_HEIGHT_M / 2:.3f}" size="0.45 0.3 {_TABLE_HEIGHT_M / 2:.3f}" rgba="0.55 0.4 0.25 1"/>
+    {"".join(bodies)}
+  </worldbody>
+</mujoco>"""
+
+
+def table_height_m() -> float:
+    """Height of the table top of `tabletop_drop_scene`, in metres."""
+    return _TABLE_HEIGHT_M
+
+
+def random_drop_heights(rng: np.random.Generator, n_worlds: int, n_objects: int) -> np.ndarray:
+    """Drop heights above the table top, (n_worlds, n_objects), uniform in [0.05, 0.4] m."""
+    return rng.uniform(0.05, 0.4, size=(n_worlds, n_objects))
