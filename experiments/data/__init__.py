@@ -1,0 +1,1 @@
+"""Synthetic data generators that simulate the papers' recording protocols, deterministic from a seed."""

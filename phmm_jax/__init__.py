@@ -1,0 +1,44 @@
+"""phmm_jax: explicit-duration left-right HMMs and parametric HMMs in JAX.
+
+Shapes: B sequences, T frames, D features, N states, P pseudo-states per state, d parameters.
+
+Models
+    HMMConfig(n_states, min_duration, max_duration, covariance_type, reg_covar, ...)   structure + EM settings
+    HMM            means (N, D), covariances (N, D, D), log_cont / log_exit (N, P), config
+    PHMM           local HMMs stacked over the C grid corners, grid_shape (g_1, ..., g_d)
+    expand_to_dense(hmm) -> DenseHMM   the equivalent ordinary HMM over N·P pseudo-states
+
+Inference (X: (B, T, D) with lengths (B,), a (T, D) sequence, or a list of (T_b, D) arrays)
+    log_likelihood(hmm, X, lengths)  -> (B,)
+    posteriors(hmm, X, lengths)      -> Posteriors(state (B, T, N), pseudo (B, T, N, P), loglik (B,))
+    messages(hmm, X, lengths)        -> Messages(log_alpha, log_beta (B, T, N, P), loglik (B,))
+    viterbi(hmm, X, lengths)         -> (states (B, T), log-probability (B,))
+
+Training
+    fit_hmm(X, lengths, config, init=None, freeze_means_after=None)   Baum–Welch EM
+    fit_hmm_gradient(X, lengths, config, init=None, n_steps=200)      optax L-BFGS on the NLL
+    fit_phmm(groups, grid_shape, config)                              synchronised local training
+
+Parametric HMMs
+    phmm_log_likelihood(phmm, X, phi, lengths) -> (B,), differentiable in phi
+    recognize(phmms, X, lengths, epsilon=0.1)  -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
+    synthesize(phmm, phi, length=100)          -> (length, D) mean movement
+    target_to_phi(corner_targets, targets)     -> (M, d) interpolation parameters of target points
+
+Persistence
+    save(path, model), load(path)
+"""
+from phmm_jax.api import Posteriors, log_likelihood, messages, posteriors, viterbi
+from phmm_jax.em import fit_hmm
+from phmm_jax.gradfit import fit_hmm_gradient
+from phmm_jax.io import load, save
+from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
+from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
+from phmm_jax.synthesis import synthesize, target_to_phi
+
+__all__ = [
+    "HMM", "PHMM", "DenseHMM", "HMMConfig", "Posteriors", "Recognition",
+    "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
+    "interpolate", "load", "log_likelihood", "messages", "phmm_log_likelihood", "posteriors",
+    "recognize", "save", "synthesize", "target_to_phi", "viterbi",
+]

@@ -1,0 +1,88 @@
+"""Batched inference on padded sequences: the public functions check their input, then call jitted
+`vmap`s of the single-sequence routines of `phmm_jax.inference`.
+
+Shapes: B sequences, T frames (padded), D features, N states, P pseudo-states per state.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from phmm_jax import inference
+from phmm_jax.data import check_feasible, pad_sequences, to_device
+from phmm_jax.emissions import gaussian_log_density
+from phmm_jax.model import HMM
+
+
+def emission_log_densities(hmm: HMM, X):
+    """(B, T, N) log-densities of every frame under every state's Gaussian."""
+    return gaussian_log_density(X, hmm.means, hmm.covariances)
+
+
+@jax.jit
+def batch_log_likelihood(hmm: HMM, X, lengths):
+    """Jitted core of `log_likelihood` on checked, padded device arrays."""
+    log_b = emission_log_densities(hmm, X)
+    return jax.vmap(inference.forward_loglik, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+
+
+@jax.jit
+def batch_messages(hmm: HMM, X, lengths) -> inference.Messages:
+    log_b = emission_log_densities(hmm, X)
+    return jax.vmap(inference.forward_backward, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+
+
+class Posteriors(NamedTuple):
+    """state: (B, T, N) P(state i at t | x). pseudo: (B, T, N, P) the same per pseudo-state (how
+    long the path has been in the state). loglik: (B,). Padded frames have zero probability."""
+
+    state: jnp.ndarray
+    pseudo: jnp.ndarray
+    loglik: jnp.ndarray
+
+
+@jax.jit
+def batch_posteriors(hmm: HMM, X, lengths) -> Posteriors:
+    messages = batch_messages(hmm, X, lengths)
+    pseudo = jax.vmap(inference.pseudo_posteriors)(messages)
+    return Posteriors(jnp.sum(pseudo, axis=-1), pseudo, messages.loglik)
+
+
+@jax.jit
+def batch_viterbi(hmm: HMM, X, lengths):
+    log_b = emission_log_densities(hmm, X)
+    return jax.vmap(inference.viterbi, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+
+
+def _checked(hmm: HMM, X, lengths):
+    X, lengths = pad_sequences(X, lengths, dim=hmm.dim)
+    check_feasible(hmm.config, lengths)
+    return to_device(X, lengths)
+
+
+def log_likelihood(hmm: HMM, X, lengths=None):
+    """log p(x | hmm) per sequence (B,), the end constraint included.
+
+    X: (B, T, D) padded with `lengths` (B,), a (T, D) sequence, or a list of (T_b, D) arrays.
+    Raises `ValueError` for NaN/inf within the lengths, a wrong D, an empty batch, lengths outside
+    [1, T], or a sequence shorter (or longer) than any path the model allows.
+    """
+    return batch_log_likelihood(hmm, *_checked(hmm, X, lengths))
+
+
+def messages(hmm: HMM, X, lengths=None) -> inference.Messages:
+    """Forward and backward log-messages, each (B, T, N, P), and log-likelihoods (B,)."""
+    return batch_messages(hmm, *_checked(hmm, X, lengths))
+
+
+def posteriors(hmm: HMM, X, lengths=None) -> Posteriors:
+    """State and pseudo-state posteriors and log-likelihoods (see `Posteriors`)."""
+    return batch_posteriors(hmm, *_checked(hmm, X, lengths))
+
+
+def viterbi(hmm: HMM, X, lengths=None):
+    """Most probable path: (states (B, T) int, log-probabilities (B,)); states are -1 on padding."""
+    states, _, score = batch_viterbi(hmm, *_checked(hmm, X, lengths))
+    return states, score

@@ -1,0 +1,235 @@
+"""Parametric HMMs (PHMM §III-B, BMVC §4): local HMMs at the corners of a regular grid over the
+parameter box [0, 1]^d, synchronised by training, interpolated component-wise and d-linearly.
+
+Shapes: d parameter dimensions, grid (g_1, ..., g_d) with C = Π g_k local HMMs, N states, D features.
+A parameter φ in [0, 1]^d lies in the grid cell around it; interpolation uses the 2^d corners of that
+cell (eqs. 1, 4–6). Outside [0, 1] (recognition searches [−ε, 1+ε]^d) means extrapolate linearly from
+the border cell; covariances and duration distributions use φ clipped to the box, so they stay valid
+(a positive-definite mix, a probability distribution).
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from lfd_common import as_array, check_int, check_real
+from phmm_jax import inference
+from phmm_jax.data import check_feasible, pad_sequences, stack_groups, to_device
+from phmm_jax.em import em_step, initial_hmm, run_em
+from phmm_jax.emissions import gaussian_log_density
+from phmm_jax.model import HMM, HMMConfig, duration_log_probs, safe_log, transitions_from_durations
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["local"], meta_fields=["grid_shape"])
+@dataclasses.dataclass(frozen=True)
+class PHMM:
+    """A parametric HMM: `local` is one HMM whose arrays carry a leading axis C over grid corners in
+    C order (the last parameter varies fastest); `grid_shape` = (g_1, ..., g_d)."""
+
+    local: HMM
+    grid_shape: tuple[int, ...]
+
+    @property
+    def n_params(self) -> int:
+        return len(self.grid_shape)
+
+    @property
+    def config(self) -> HMMConfig:
+        return self.local.config
+
+    def corner(self, index: tuple[int, ...]) -> HMM:
+        flat = int(np.ravel_multi_index(index, self.grid_shape))
+        return jax.tree_util.tree_map(lambda a: a[flat], self.local)
+
+    def outer(self) -> "PHMM":
+        """The PHMM of the 2^d outermost corners only (the coarse model of the hierarchical search)."""
+        picks = [int(np.ravel_multi_index(c, self.grid_shape)) for c in
+                 itertools.product(*[(0, g - 1) for g in self.grid_shape])]
+        return PHMM(jax.tree_util.tree_map(lambda a: a[np.array(picks)], self.local), (2,) * self.n_params)
+
+
+def grid_points(grid_shape) -> np.ndarray:
+    """Parameter values φ (C, d) of the corners of a regular grid over [0, 1]^d, in C order."""
+    axes = [np.linspace(0.0, 1.0, g) for g in grid_shape]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(grid_shape))
+
+
+def cell_weights(grid_shape, phi):
+    """Corner indices (2^d,) and d-linear weights (2^d,) for φ (d,); weights may be negative outside
+    [0, 1]^d (linear extrapolation from the border cell). Differentiable in φ."""
+    grid = jnp.asarray(grid_shape)
+    scaled = phi * (grid - 1)
+    lower = jnp.clip(jnp.floor(jax.lax.stop_gradient(scaled)), 0, grid - 2).astype(jnp.int32)
+    frac = scaled - lower  # u, v, w of eqs. 4-6
+    offsets = jnp.asarray(list(itertools.product((0, 1), repeat=len(grid_shape))))  # (2^d, d)
+    weights = jnp.prod(jnp.where(offsets == 1, frac, 1.0 - frac), axis=1)
+    strides = jnp.asarray(np.cumprod((1,) + tuple(grid_shape[::-1]))[-2::-1].copy())
+    corners = jnp.sum((lower + offsets) * strides, axis=1)
+    return corners, weights
+
+
+def interpolate(phmm: PHMM, phi) -> HMM:
+    """The HMM λ^φ: d-linear interpolation of the local HMMs (means extrapolate; covariances and
+    duration distributions use φ clipped to [0, 1]^d)."""
+    corners, weights = cell_weights(phmm.grid_shape, phi)
+    corners_in, weights_in = cell_weights(phmm.grid_shape, jnp.clip(phi, 0.0, 1.0))
+    local = phmm.local
+    means = jnp.einsum("c,cnd->nd", weights, local.means[corners])
+    covariances = jnp.einsum("c,cnde->nde", weights_in, local.covariances[corners_in])
+    p = jnp.exp(jax.vmap(duration_log_probs)(jax.tree_util.tree_map(lambda a: a[corners_in], local)))
+    config = local.config
+    if config.explicit_duration:
+        log_p = safe_log(jnp.einsum("c,cnp->np", weights_in, p))
+        log_cont, log_exit = transitions_from_durations(config, log_p)
+    else:  # self-loop probabilities interpolate directly
+        log_cont = safe_log(jnp.einsum("c,cnp->np", weights_in, jnp.exp(local.log_cont[corners_in])))
+        log_exit = safe_log(jnp.einsum("c,cnp->np", weights_in, jnp.exp(local.log_exit[corners_in])))
+    return HMM(means, covariances, log_cont, log_exit, config)
+
+
+def _loglik_one(phmm: PHMM, x, length, phi):
+    hmm = interpolate(phmm, phi)
+    log_b = gaussian_log_density(x, hmm.means, hmm.covariances)
+    return inference.forward_loglik(hmm, log_b, length)
+
+
+@jax.jit
+def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
+    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D) and φ (B, d). Differentiable in φ."""
+    return jax.vmap(_loglik_one, in_axes=(None, 0, 0, 0))(phmm, X, lengths, phi)
+
+
+def _check_phi(phmm: PHMM, phi, batch: int):
+    phi = as_array(phi, "phi", ndim=(1, 2))
+    if phi.shape[-1] != phmm.n_params:
+        raise ValueError(f"phi: expected {phmm.n_params} parameter(s) per sequence, got shape {phi.shape}")
+    phi = np.broadcast_to(phi, (batch, phmm.n_params)) if phi.ndim == 1 else phi
+    if phi.shape[0] != batch:
+        raise ValueError(f"phi: expected {batch} rows (one per sequence), got {phi.shape[0]}")
+    return phi
+
+
+def phmm_log_likelihood(phmm: PHMM, X, phi, lengths=None):
+    """log p(x | λ^φ) per sequence (B,). φ: (d,) for all sequences or (B, d). Differentiable in φ
+    through `batch_phmm_log_likelihood`."""
+    X, lengths = pad_sequences(X, lengths, dim=phmm.local.dim)
+    check_feasible(phmm.config, lengths)
+    phi = _check_phi(phmm, phi, X.shape[0])
+    X, lengths = to_device(X, lengths)
+    return batch_phmm_log_likelihood(phmm, X, lengths, jnp.asarray(phi, X.dtype))
+
+
+def fit_phmm(groups, grid_shape, config: HMMConfig = HMMConfig(), local_iters: int | None = None):
+    """Train a PHMM by the synchronised local training of PHMM §III-B1.
+
+    groups: one entry per grid corner in C order (`grid_points(grid_shape)` gives their φ), each a
+        list of (T_b, D) sequences or a (B, T, D) array, all of the same action.
+    1. A global HMM is fitted by EM on all sequences. 2. Every local HMM starts from it and runs EM
+    on its own sequences with the means fixed after the first iteration (eq. 2), so corresponding
+    states of all local HMMs model the same part of the movement. The local EMs run as one vmap.
+    local_iters: EM iterations for the local models (default `config.n_iter`).
+    """
+    grid_shape = tuple(check_int(g, "grid_shape", min_value=2) for g in grid_shape)
+    n_corners = int(np.prod(grid_shape))
+    if len(groups) != n_corners:
+        raise ValueError(f"groups: a {'x'.join(map(str, grid_shape))} grid needs {n_corners} groups of "
+                         f"sequences (one per corner), got {len(groups)}")
+    for k, group in enumerate(groups):
+        if len(group) == 0:
+            raise ValueError(f"groups[{k}]: the grid corner {np.unravel_index(k, grid_shape)} has no sequences")
+    X, lengths, weights = stack_groups(groups, None, "groups")
+    check_feasible(config, lengths.ravel())
+    X = jnp.asarray(X, jnp.result_type(float))
+    lengths, weights = jnp.asarray(lengths), jnp.asarray(weights, X.dtype)
+    flat = (X.reshape(-1, *X.shape[2:]), lengths.ravel(), weights.ravel())
+    global_hmm = initial_hmm(config, *flat)
+    global_hmm, _ = run_em(global_hmm, *flat, config.n_iter, config.tol)
+    start = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n_corners,) + a.shape), global_hmm)
+    local, _ = run_em(start, X, lengths, weights, local_iters or config.n_iter, config.tol,
+                      freeze_means_after=1, step=_local_em_step)
+    return PHMM(local, grid_shape)
+
+
+@partial(jax.jit, static_argnames=("update_means",))
+def _local_em_step(hmm: HMM, X, lengths, weights, update_means: bool = True):
+    """`em_step` for all local HMMs at once (leading axis C on every argument)."""
+    return jax.vmap(lambda h, x, n, w: em_step(h, x, n, w, update_means=update_means))(hmm, X, lengths, weights)
+
+
+class Recognition(NamedTuple):
+    """label: (B,) index of the best PHMM. phi: (B, K, d) the best parameter per sequence and PHMM.
+    loglik: (B, K) log-likelihood at that parameter."""
+
+    label: np.ndarray
+    phi: np.ndarray
+    loglik: np.ndarray
+
+
+def _start_lattice(n_params: int, points: int) -> jnp.ndarray:
+    axis = np.linspace(0.0, 1.0, points)
+    return jnp.asarray(np.stack(np.meshgrid(*[axis] * n_params, indexing="ij"), -1).reshape(-1, n_params))
+
+
+@partial(jax.jit, static_argnames=("n_steps", "lattice_points"))
+def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_steps: int, lattice_points: int):
+    """φ* for every sequence: best point of a coarse lattice under `coarse`, projected Adam ascent
+    under `coarse`, then under the full grid (`phmm`) from there. Returns (φ (B, d), loglik (B,))."""
+    lattice = _start_lattice(phmm.n_params, lattice_points)
+
+    def ascend(model, x, length, phi0):
+        objective = lambda phi: -_loglik_one(model, x, length, phi) / length  # noqa: E731
+        schedule = optax.cosine_decay_schedule(learning_rate, n_steps)
+        opt = optax.adam(schedule)
+
+        def step(carry, _):
+            phi, state = carry
+            grad = jax.grad(objective)(phi)
+            updates, state = opt.update(grad, state, phi)
+            phi = jnp.clip(optax.apply_updates(phi, updates), -epsilon, 1.0 + epsilon)
+            return (phi, state), None
+
+        (phi, _), _ = jax.lax.scan(step, (phi0, opt.init(phi0)), None, length=n_steps)
+        return phi
+
+    def one(x, length):
+        scores = jax.vmap(lambda phi: _loglik_one(coarse, x, length, phi))(lattice)
+        phi = ascend(coarse, x, length, lattice[jnp.argmax(scores)])
+        phi = ascend(phmm, x, length, phi)
+        return phi, _loglik_one(phmm, x, length, phi)
+
+    return jax.vmap(one)(X, lengths)
+
+
+def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 40, learning_rate: float = 0.05,
+              lattice_points: int = 3) -> Recognition:
+    """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
+
+    For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ) by projected gradient ascent
+    (jax.grad + optax Adam), hierarchically: first the PHMM of the outermost corners from the best of
+    a `lattice_points`^d lattice, then the full grid from that estimate. The label is the k with
+    the highest log-likelihood at its φ_k. Batched over sequences with vmap.
+    phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
+    """
+    phmms = [phmms] if isinstance(phmms, PHMM) else list(phmms)
+    if not phmms:
+        raise ValueError("phmms: need at least one PHMM")
+    epsilon = check_real(epsilon, "epsilon", min_value=0.0)
+    check_int(n_steps, "n_steps", min_value=0)
+    check_int(lattice_points, "lattice_points", min_value=1)
+    X, lengths = pad_sequences(X, lengths, dim=phmms[0].local.dim)
+    for k, phmm in enumerate(phmms):
+        if phmm.local.dim != X.shape[-1] or phmm.n_params != phmms[0].n_params:
+            raise ValueError(f"phmms[{k}]: differs in feature dimension or parameter count from phmms[0]")
+        check_feasible(phmm.config, lengths)
+    X, lengths = to_device(X, lengths)
+    results = [_search(p, p.outer(), X, lengths, epsilon, learning_rate, n_steps, lattice_points) for p in phmms]
+    phi = np.stack([np.asarray(r[0]) for r in results], axis=1)
+    loglik = np.stack([np.asarray(r[1]) for r in results], axis=1)
+    return Recognition(np.argmax(loglik, axis=1), phi, loglik)

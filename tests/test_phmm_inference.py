@@ -1,0 +1,182 @@
+"""phmm_jax inference against brute-force enumeration, a dense float64 numpy HMM and hmmlearn."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+import phmm_jax as P
+from phmm_jax import api, inference
+from phmm_jax.model import transitions_from_durations
+from tests.phmm_reference import brute_force, dense_forward_backward, emission_table
+
+STRUCTURES = [
+    P.HMMConfig(n_states=3, min_duration=2, max_duration=4),
+    P.HMMConfig(n_states=3, min_duration=1, max_duration=3, covariance_type="diag"),
+    P.HMMConfig(n_states=3, min_duration=1),
+    P.HMMConfig(n_states=2, min_duration=3),
+]
+
+
+@pytest.fixture(autouse=True)
+def float64():
+    previous = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", True)
+    yield
+    jax.config.update("jax_enable_x64", previous)
+
+
+def random_hmm(cfg, rng, dim=2):
+    n, p = cfg.n_states, cfg.n_pseudo
+    means = rng.normal(scale=1.5, size=(n, dim))
+    if cfg.covariance_type == "full":
+        a = rng.normal(size=(n, dim, dim))
+        covs = a @ a.transpose(0, 2, 1) + 0.5 * np.eye(dim)
+    else:
+        covs = rng.uniform(0.5, 2.0, size=(n, dim))[:, :, None] * np.eye(dim)
+    if cfg.explicit_duration:
+        log_p = np.log(rng.dirichlet(np.ones(p), size=n))
+        log_p[:, : cfg.min_duration - 1] = -np.inf
+        log_p -= logsumexp(log_p, axis=1, keepdims=True)
+        log_cont, log_exit = transitions_from_durations(cfg, jnp.asarray(log_p))
+    else:
+        stay = rng.uniform(0.3, 0.8, size=n)
+        log_cont = np.zeros((n, p))
+        log_exit = np.full((n, p), -np.inf)
+        log_cont[:, -1], log_exit[:, -1] = np.log(stay), np.log1p(-stay)
+    return P.HMM(jnp.asarray(means), jnp.asarray(covs), jnp.asarray(log_cont), jnp.asarray(log_exit), cfg)
+
+
+@pytest.mark.parametrize("cfg", STRUCTURES)
+def test_loglik_viterbi_posteriors_against_enumeration(cfg):
+    rng = np.random.default_rng(1)
+    hmm = random_hmm(cfg, rng)
+    X = rng.normal(scale=1.5, size=(3, 9, 2))
+    lengths = np.array([9, 7, 6])
+    loglik = np.asarray(P.log_likelihood(hmm, X, lengths))
+    states, best = map(np.asarray, P.viterbi(hmm, X, lengths))
+    post = P.posteriors(hmm, X, lengths)
+    dense = P.expand_to_dense(hmm)
+    for b, length in enumerate(lengths):
+        x = X[b, :length]
+        ref_ll, ref_best, ref_path = brute_force(hmm, x)
+        np.testing.assert_allclose(loglik[b], ref_ll, rtol=1e-10)
+        np.testing.assert_allclose(best[b], ref_best, rtol=1e-10)
+        np.testing.assert_array_equal(states[b, :length], ref_path)
+        assert np.all(states[b, length:] == -1)
+        dense_ll, dense_post = dense_forward_backward(dense, x)
+        np.testing.assert_allclose(dense_ll, ref_ll, rtol=1e-10)
+        np.testing.assert_allclose(np.asarray(post.pseudo[b, :length]).reshape(length, -1), dense_post, atol=1e-10)
+        assert np.all(np.asarray(post.state[b, length:]) == 0)
+    np.testing.assert_allclose(np.asarray(post.state.sum(-1)), (np.arange(9) < lengths[:, None]).astype(float),
+                               atol=1e-10)
+
+
+@pytest.mark.parametrize("cfg", STRUCTURES[:3])
+def test_loglik_matches_hmmlearn_on_expanded_model(cfg):
+    hmm_module = pytest.importorskip("hmmlearn.hmm")
+    from hmmlearn import _hmmc
+
+    rng = np.random.default_rng(2)
+    hmm = random_hmm(cfg, rng, dim=3)
+    dense = P.expand_to_dense(hmm)
+    X = rng.normal(scale=1.5, size=(4, 9, 3))
+    lengths = np.array([9, 8, 6, 7])
+    ours = np.asarray(P.log_likelihood(hmm, X, lengths))
+    ref = hmm_module.GaussianHMM(n_components=len(dense.means), covariance_type="full")
+    ref.n_features = 3
+    ref.startprob_ = np.exp(dense.log_initial)
+    ref.means_ = dense.means
+    ref.covars_ = dense.covariances
+    for b, length in enumerate(lengths):
+        log_frameprob = ref._compute_log_likelihood(X[b, :length])
+        _, fwd = _hmmc.forward_log(np.exp(dense.log_initial), np.exp(dense.log_transition), log_frameprob)
+        # hmmlearn has no end state: the end constraint is applied to its forward lattice.
+        theirs = logsumexp(fwd[-1] + dense.log_final)
+        assert abs(ours[b] - theirs) <= 1e-5 * abs(theirs)
+
+
+def test_expand_to_dense_is_stochastic_with_the_end():
+    hmm = random_hmm(STRUCTURES[0], np.random.default_rng(3))
+    dense = P.expand_to_dense(hmm)
+    out_mass = logsumexp(np.concatenate([dense.log_transition, dense.log_final[:, None]], axis=1), axis=1)
+    reachable = np.isfinite(out_mass)
+    np.testing.assert_allclose(out_mass[reachable], 0.0, atol=1e-12)
+    assert dense.log_transition[0, 2 * 4] == -np.inf  # no skipping a state
+
+
+def test_posteriors_and_counts_are_gradients_of_loglik():
+    cfg = STRUCTURES[0]
+    rng = np.random.default_rng(4)
+    hmm = random_hmm(cfg, rng)
+    X, lengths = jnp.asarray(rng.normal(size=(2, 10, 2))), jnp.asarray([10, 8])
+    log_b = api.emission_log_densities(hmm, X)
+
+    def total(log_b, log_cont, log_exit):
+        model = hmm.replace(log_cont=log_cont, log_exit=log_exit)
+        return jnp.sum(jax.vmap(inference.forward_loglik, in_axes=(None, 0, 0))(model, log_b, lengths))
+
+    g_b, g_cont, g_exit = jax.grad(total, argnums=(0, 1, 2))(log_b, hmm.log_cont, hmm.log_exit)
+    messages = jax.vmap(inference.forward_backward, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+    post = jnp.sum(jax.vmap(inference.pseudo_posteriors)(messages), axis=-1)
+    cont, exits = jax.vmap(inference.expected_transitions, in_axes=(None, 0, 0, 0))(hmm, log_b, lengths, messages)
+    np.testing.assert_allclose(g_b, post, atol=1e-10)
+    np.testing.assert_allclose(g_cont, cont.sum(0), atol=1e-10)
+    np.testing.assert_allclose(g_exit, exits.sum(0), atol=1e-10)
+    # Every explicit-duration state is left exactly once per sequence.
+    np.testing.assert_allclose(exits.sum(-1), 1.0, atol=1e-10)
+
+
+def test_padding_leaks_into_neither_values_nor_gradients():
+    cfg = STRUCTURES[0]
+    rng = np.random.default_rng(5)
+    hmm = random_hmm(cfg, rng)
+    x = rng.normal(size=(7, 2))
+    padded = np.concatenate([x, np.full((5, 2), 1e3)])[None]
+
+    def loglik_of_means(means, X, lengths):
+        return api.batch_log_likelihood(hmm.replace(means=means), X, lengths)[0]
+
+    short = jax.value_and_grad(loglik_of_means)(hmm.means, jnp.asarray(x[None]), jnp.asarray([7]))
+    long = jax.value_and_grad(loglik_of_means)(hmm.means, jnp.asarray(padded), jnp.asarray([7]))
+    np.testing.assert_allclose(short[0], long[0], rtol=1e-12)
+    assert np.all(np.isfinite(long[1]))
+    np.testing.assert_allclose(short[1], long[1], rtol=1e-10)
+
+
+def test_emissions_match_scipy():
+    rng = np.random.default_rng(6)
+    hmm = random_hmm(STRUCTURES[0], rng, dim=4)
+    x = rng.normal(size=(5, 4))
+    ours = np.asarray(api.emission_log_densities(hmm, jnp.asarray(x)))
+    np.testing.assert_allclose(ours, emission_table(np.asarray(hmm.means), np.asarray(hmm.covariances), x), rtol=1e-10)
+
+
+def test_bad_input_is_named():
+    hmm = random_hmm(STRUCTURES[0], np.random.default_rng(7))  # 3 states x 2..4 steps: 6..12 frames
+    good = np.zeros((2, 8, 2))
+    with pytest.raises(ValueError, match="shorter than the shortest allowed path"):
+        P.log_likelihood(hmm, np.zeros((1, 5, 2)))
+    with pytest.raises(ValueError, match="longer than the longest allowed path"):
+        P.log_likelihood(hmm, np.zeros((1, 13, 2)))
+    with pytest.raises(ValueError, match="X: contains 1 NaN"):
+        bad = good.copy()
+        bad[1, 3, 0] = np.nan
+        P.log_likelihood(hmm, bad)
+    with pytest.raises(ValueError, match="X: expected feature dimension D=2"):
+        P.log_likelihood(hmm, np.zeros((2, 8, 3)))
+    with pytest.raises(ValueError, match="X: the batch is empty"):
+        P.log_likelihood(hmm, np.zeros((0, 8, 2)))
+    with pytest.raises(ValueError, match="lengths: values must be <= 8"):
+        P.log_likelihood(hmm, good, lengths=[8, 9])
+    with pytest.raises(ValueError, match="lengths: values must be >= 1"):
+        P.log_likelihood(hmm, good, lengths=[8, 0])
+    with pytest.raises(ValueError, match="min_duration: must be <= max_duration"):
+        P.HMMConfig(n_states=3, min_duration=5, max_duration=4)
+    # NaN in the padding is not an error: it is never read.
+    padded = good.copy()
+    padded[1, 7] = np.nan
+    assert np.all(np.isfinite(np.asarray(P.log_likelihood(hmm, padded, lengths=[8, 7]))))
+    # A list of unequal sequences is padded for the user.
+    out = P.log_likelihood(hmm, [np.zeros((8, 2)), np.zeros((7, 2))])
+    np.testing.assert_allclose(out, P.log_likelihood(hmm, padded, lengths=[8, 7]))
