@@ -1,0 +1,111 @@
+"""Connected hierarchic CRFs ("late fusion", OAC eq. 8 / LfD eq. 9) and the object-history prior (LfD eq. 10).
+
+    P(a, o | x) = K(a, o) P(a | x) P(o | x) / Z(x),   Z(x) = sum_{a, o} K(a, o) P(a | x) P(o | x)
+
+K is the co-occurrence rate of action and object labels in the training data (`cooccurrence`,
+with additive smoothing so that unseen pairs keep a small mass). P(a | x) and P(o | x) come from
+any classifier that gives (log) probabilities: `chain.segment_log_probs` (pre-segmented CRF,
+eq. 3), `hcrf.log_probs` (eq. 5), `linear.predict_log_proba`. The normaliser Z(x) is returned: LfD
+uses it as the plausibility of an object-action complex (low for unseen combinations).
+All arithmetic in log space. Shapes: B batch, Ka actions, Ko objects, I history entries, P position dims.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from crf_jax.chain import safe_logsumexp
+from lfd_common import as_array, check_int, check_real
+
+Array = jax.Array
+
+
+class CHCRFResult(NamedTuple):
+    log_joint: Array  # (B, Ka, Ko) log P(a, o | x)
+    log_z: Array  # (B,) log Z(x) = log sum_{a,o} K(a, o) P(a | x) P(o | x)
+    log_action: Array  # (B, Ka) marginal log P(a | x) of the fused model
+    log_object: Array  # (B, Ko) marginal log P(o | x) of the fused model
+
+
+def cooccurrence(actions, objects, n_actions: int, n_objects: int, smoothing: float = 0.0) -> np.ndarray:
+    """K (Ka, Ko): (count(a, o) + smoothing) / sum, from paired training labels actions, objects (N,)."""
+    n_actions = check_int(n_actions, "n_actions", min_value=1)
+    n_objects = check_int(n_objects, "n_objects", min_value=1)
+    smoothing = check_real(smoothing, "smoothing", min_value=0.0)
+    a = as_array(actions, "actions", ndim=1, dtype=np.int64, min_value=0, max_value=n_actions - 1)
+    o = as_array(objects, "objects", ndim=1, dtype=np.int64, min_value=0, max_value=n_objects - 1)
+    if a.shape != o.shape:
+        raise ValueError(f"objects: expected {a.shape[0]} labels (one per action label), got {o.shape[0]}")
+    counts = np.zeros((n_actions, n_objects))
+    np.add.at(counts, (a, o), 1.0)
+    counts += smoothing
+    return counts / counts.sum()
+
+
+@jax.jit
+def fuse_jit(log_pa: Array, log_po: Array, log_k: Array) -> CHCRFResult:
+    joint = log_k[None] + log_pa[:, :, None] + log_po[:, None, :]
+    log_z = safe_logsumexp(joint.reshape(joint.shape[0], -1), axis=-1)
+    log_joint = joint - log_z[:, None, None]
+    return CHCRFResult(log_joint, log_z, safe_logsumexp(log_joint, axis=2), safe_logsumexp(log_joint, axis=1))
+
+
+def fuse(log_p_action, log_p_object, cooc) -> CHCRFResult:
+    """Late fusion (eq. 8): log_p_action (B, Ka), log_p_object (B, Ko), cooc K (Ka, Ko) >= 0.
+
+    The classifier outputs may be normalised log probabilities or unnormalised log scores (Z then
+    carries their scale, as in LfD Fig. 8).
+    """
+    la = as_array(log_p_action, "log_p_action", ndim=2, finite=False)
+    lo = as_array(log_p_object, "log_p_object", ndim=2, finite=False)
+    for name, arr in (("log_p_action", la), ("log_p_object", lo)):
+        if np.any(np.isnan(arr)) or np.any(arr == np.inf):
+            raise ValueError(f"{name}: contains NaN or +inf")
+    if la.shape[0] != lo.shape[0]:
+        raise ValueError(f"log_p_object: batch of {lo.shape[0]} does not match the {la.shape[0]} action rows")
+    k = as_array(cooc, "cooc", shape=(la.shape[1], lo.shape[1]), min_value=0.0)
+    if k.sum() <= 0:
+        raise ValueError("cooc: all co-occurrence rates are 0")
+    with np.errstate(divide="ignore"):
+        log_k = np.log(k)
+    return fuse_jit(jnp.asarray(la, jnp.float32), jnp.asarray(lo, jnp.float32), jnp.asarray(log_k, jnp.float32))
+
+
+def history_prior(history, history_positions, position, default_distance: float,
+                  min_distance: float = 1e-6) -> np.ndarray:
+    """LfD eq. 10 prior (Ka, Ko): (1 / (I + 1)) (P_0 / delta_0 + sum_i P_i / |p_i - p|).
+
+    history (I, Ka, Ko): P(a, o | x) of the I earlier OACs of the scene (I may be 0); history_positions
+    (I, P): the hand position at the end of each; position (P,): the hand position at the start of
+    the new OAC; default_distance delta_0 > 0 weights the "object not manipulated before" hypothesis
+    with uniform P_0. Distances are clipped below at `min_distance`.
+    """
+    d0 = check_real(default_distance, "default_distance", min_value=0.0, exclusive_min=True)
+    min_distance = check_real(min_distance, "min_distance", min_value=0.0, exclusive_min=True)
+    hist = as_array(history, "history", ndim=3, min_value=0.0, nonempty=False)
+    p = as_array(position, "position", ndim=1)
+    pos = as_array(history_positions, "history_positions", shape=(hist.shape[0], p.shape[0]), nonempty=False)
+    if hist.shape[1] == 0 or hist.shape[2] == 0:
+        raise ValueError(f"history: expected shape (I, Ka, Ko) with Ka, Ko >= 1, got {hist.shape}")
+    n = hist.shape[0]
+    prior = np.full(hist.shape[1:], 1.0 / (hist.shape[1] * hist.shape[2])) / d0
+    if n:
+        dist = np.maximum(np.linalg.norm(pos - p[None], axis=1), min_distance)
+        prior = prior + np.sum(hist / dist[:, None, None], axis=0)
+    return prior / (n + 1)
+
+
+def apply_history(log_joint, prior) -> tuple[np.ndarray, float]:
+    """P(a, o | x, history) ∝ P(a, o | x) * prior for one OAC: log_joint (Ka, Ko) -> (normalised log, log normaliser)."""
+    lj = as_array(log_joint, "log_joint", ndim=2, finite=False)
+    pr = as_array(prior, "prior", shape=lj.shape, min_value=0.0)
+    with np.errstate(divide="ignore"):
+        s = lj + np.log(pr)
+    m = np.max(s)
+    if not np.isfinite(m):
+        raise ValueError("prior: gives zero probability to every (action, object) pair")
+    log_norm = float(m + np.log(np.sum(np.exp(s - m))))
+    return s - log_norm, log_norm

@@ -1,0 +1,239 @@
+"""HMM inference throughput: phmm_jax against dynamax and hmmlearn on the PHMM papers' workload.
+
+    python -m experiments.bench.bench_hmm --preset paper --out runs/bench_hmm
+
+Workload (paper preset): B = 280 movements of T = 100 frames, D = 21 (7 markers x 3-D), an HMM of
+N = 20 states with durations 4-6 (120 pseudo-states), full covariances, fitted by our EM on simulated
+reaching movements. Every side scores the same model (`expand_to_dense` of ours for the anchors) on
+the same sequences, timed from the (B, T, D) frames to the result, median of repeats after warm-up:
+
+* ours: Gaussian emissions for the 20 states (one GEMM) + structured forward (log-likelihood) or
+  forward-backward (pseudo-state and state posteriors), end constraint included.
+* dynamax `hmm_filter` / `hmm_smoother` (vmapped, jitted) on the 120-state dense matrix, fed with
+  emission log-likelihoods computed by the same GEMM code as ours and gathered to 120 pseudo-states
+  (the strong anchor; posteriors as `hmm_filter` x `hmm_backward_filter`, normalised, which is
+  `hmm_smoother` without its transition probabilities).
+* dynamax `GaussianHMM.marginal_log_prob` / `smoother` (vmapped, jitted): what a dynamax user writes.
+* hmmlearn `GaussianHMM.score` / `predict_proba` on all sequences in one call with `lengths` (C,
+  float64; rows of the end-state pseudo-states are renormalised, since hmmlearn has no end state).
+The anchors have no end constraint: they skip one final logsumexp over a subset, a negligible saving.
+float32 everywhere except hmmlearn, which is float64 only: its ratios use our float64 timings.
+"""
+from __future__ import annotations
+
+import dataclasses
+import statistics
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from experiments.config import markdown_table, parse_config
+from experiments.data.reaching import movements_at, raster_targets
+from lfd_common import enable_compilation_cache
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchConfig:
+    """phmm_jax vs dynamax vs hmmlearn: log-likelihood and posterior throughput, EM, recognition."""
+
+    seed: int = 0
+    batch: int = 280
+    n_frames: int = 100
+    n_states: int = 20
+    min_duration: int = 4
+    max_duration: int = 6
+    em_sequences: int = 90
+    recognition_batch: int = 70
+    repeats: int = 7
+    hmmlearn_batch: int = 280
+
+
+PRESETS = {
+    "quick": {"batch": 56, "em_sequences": 36, "recognition_batch": 20, "repeats": 3, "hmmlearn_batch": 28},
+    "paper": {},
+}
+
+
+def timed(fn, repeats: int):
+    """(median seconds, first-call seconds) of fn() with jax.block_until_ready."""
+    start = time.perf_counter()
+    jax.block_until_ready(fn())
+    first = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        jax.block_until_ready(fn())
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), first
+
+
+def make_data(cfg: BenchConfig):
+    rng = np.random.default_rng(cfg.seed)
+    targets = raster_targets(5, 7).reshape(-1, 3)
+    reps = -(-cfg.batch // len(targets))
+    X = movements_at(rng, targets, reps, "reaching", cfg.n_frames).reshape(-1, cfg.n_frames, 21)
+    return X[rng.permutation(len(X))[: cfg.batch]]
+
+
+def main(argv=None) -> dict:
+    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_hmm", argv=argv)
+    enable_compilation_cache()
+    import phmm_jax as P
+    from phmm_jax.api import batch_log_likelihood, batch_posteriors
+    from phmm_jax.em import em_step
+
+    X_np = make_data(cfg)
+    hmm_cfg = P.HMMConfig(n_states=cfg.n_states, min_duration=cfg.min_duration, max_duration=cfg.max_duration,
+                          n_iter=10)
+    fit_start = time.perf_counter()
+    hmm = P.fit_hmm(X_np[: cfg.em_sequences], config=hmm_cfg)
+    print(f"model fitted by EM in {time.perf_counter() - fit_start:.1f} s (incl. compile)")
+    results: dict = {"batch": cfg.batch, "n_frames": cfg.n_frames, "n_pseudo_states": cfg.n_states * cfg.max_duration,
+                     "dim": X_np.shape[-1], "device": str(jax.devices()[0])}
+    rows = []
+
+    def record(name, seconds, first, n_seq):
+        rate = n_seq / seconds
+        rows.append((name, rate, seconds * 1e3, first - seconds))
+        print(f"{name:48s} {rate:12.0f} seq/s   {seconds * 1e3:9.2f} ms   compile+first ~{first - seconds:6.2f} s")
+        return rate
+
+    X = jnp.asarray(X_np, jnp.float32)
+    lengths = jnp.full(cfg.batch, cfg.n_frames, jnp.int32)
+    ours_ll = record("ours log_likelihood (f32)", *timed(lambda: batch_log_likelihood(hmm, X, lengths), cfg.repeats), cfg.batch)
+    ours_post = record("ours posteriors (f32)", *timed(lambda: batch_posteriors(hmm, X, lengths), cfg.repeats), cfg.batch)
+
+    # dynamax on the expanded model, emissions by the same code (per state, gathered to pseudo-states).
+    from dynamax.hidden_markov_model import GaussianHMM, hmm_backward_filter, hmm_filter
+
+    from phmm_jax.emissions import gaussian_log_density
+
+    dense = P.expand_to_dense(hmm)
+    init = jnp.asarray(np.exp(dense.log_initial), jnp.float32)
+    trans = jnp.asarray(np.exp(dense.log_transition), jnp.float32)
+    state_of = jnp.asarray(dense.state_of)
+
+    @jax.jit
+    def dyn_filter(X):
+        log_b = gaussian_log_density(X, hmm.means, hmm.covariances)[..., state_of]
+        return jax.vmap(lambda lb: hmm_filter(init, trans, lb).marginal_loglik)(log_b)
+
+    @jax.jit
+    def dyn_smoother(X):
+        log_b = gaussian_log_density(X, hmm.means, hmm.covariances)[..., state_of]
+        # hmm_smoother's compute_trans_probs flag is not static under its own jit, so dynamax always
+        # computes transition probabilities there; posteriors alone are its filter and backward
+        # filter combined exactly as hmm_smoother does.
+        def smooth(lb):
+            filtered = hmm_filter(init, trans, lb).filtered_probs
+            _, backward = hmm_backward_filter(trans, lb)
+            probs = filtered * backward
+            return probs / probs.sum(axis=1, keepdims=True)
+
+        return jax.vmap(smooth)(log_b)
+
+    dyn_ll = record("dynamax hmm_filter (f32)", *timed(lambda: dyn_filter(X), cfg.repeats), cfg.batch)
+    dyn_post = record("dynamax hmm_smoother (f32)", *timed(lambda: dyn_smoother(X), cfg.repeats), cfg.batch)
+
+    gauss = GaussianHMM(num_states=len(dense.means), emission_dim=X.shape[-1])
+    params, _ = gauss.initialize(initial_probs=init, transition_matrix=trans,
+                                 emission_means=jnp.asarray(dense.means, jnp.float32),
+                                 emission_covariances=jnp.asarray(dense.covariances, jnp.float32))
+    gauss_ll_fn = jax.jit(jax.vmap(lambda x: gauss.marginal_log_prob(params, x)))
+    gauss_post_fn = jax.jit(jax.vmap(lambda x: gauss.smoother(params, x).smoothed_probs))
+    gauss_ll = record("dynamax GaussianHMM.marginal_log_prob (f32)", *timed(lambda: gauss_ll_fn(X), cfg.repeats), cfg.batch)
+    gauss_post = record("dynamax GaussianHMM.smoother (f32)", *timed(lambda: gauss_post_fn(X), cfg.repeats), cfg.batch)
+
+    # Agreement of the values (the anchors lack the end constraint: compare ours without it too).
+    ours_values = np.asarray(batch_log_likelihood(hmm, X, lengths))
+    results["max_abs_diff_loglik_vs_dynamax_gaussianhmm_no_end"] = float(np.max(np.abs(
+        np.asarray(gauss_ll_fn(X)) - np.asarray(dyn_filter(X)))))
+    results["ours_mean_loglik"] = float(ours_values.mean())
+
+    # EM iteration on em_sequences (E step + M step, float32).
+    X_em = X[: cfg.em_sequences]
+    lengths_em, weights_em = lengths[: cfg.em_sequences], jnp.ones(cfg.em_sequences, jnp.float32)
+    em_s, em_first = timed(lambda: em_step(hmm, X_em, lengths_em, weights_em), cfg.repeats)
+    print(f"{'ours EM iteration on ' + str(cfg.em_sequences) + ' sequences':48s} {em_s * 1e3:9.2f} ms")
+
+    # Recognition: 2 PHMMs (reaching, pointing) on a 2x2 grid, batched phi search per sequence.
+    rng = np.random.default_rng(cfg.seed + 1)
+    corners = raster_targets(2, 2).reshape(-1, 3)
+    phmms = [P.fit_phmm(list(movements_at(rng, corners, 6, kind, cfg.n_frames)), (2, 2), hmm_cfg)
+             for kind in ("reaching", "pointing")]
+    test_targets = raster_targets(5, 7).reshape(-1, 3)[rng.integers(0, 35, cfg.recognition_batch)]
+    X_rec = np.stack([movements_at(rng, t[None], 1, "pointing", cfg.n_frames)[0, 0] for t in test_targets])
+    rec_s, rec_first = timed(lambda: P.recognize(phmms, X_rec).phi, max(1, cfg.repeats // 2))
+    recognition_ms = rec_s * 1e3 / cfg.recognition_batch
+    accuracy = float(np.mean(P.recognize(phmms, X_rec).label == 1))
+    print(f"{'ours recognition (2 classes, phi search)':48s} {recognition_ms:9.2f} ms/seq (batch {cfg.recognition_batch}, "
+          f"accuracy {accuracy:.2f})")
+
+    # hmmlearn (float64) against ours in float64.
+    from hmmlearn.hmm import GaussianHMM as HmmlearnGaussian
+
+    ref = HmmlearnGaussian(n_components=len(dense.means), covariance_type="full", implementation="log")
+    ref.n_features = X.shape[-1]
+    ref.startprob_ = np.exp(dense.log_initial)
+    transmat = np.exp(dense.log_transition)
+    row = transmat.sum(axis=1, keepdims=True)
+    ref.transmat_ = np.where(row > 0, transmat / np.where(row > 0, row, 1), np.eye(len(row)))
+    ref.means_ = dense.means
+    ref.covars_ = dense.covariances
+    nb = cfg.hmmlearn_batch
+    flat = X_np[:nb].reshape(-1, X_np.shape[-1])
+    seq_lengths = [cfg.n_frames] * nb
+    hl_ll = record("hmmlearn score (f64)", *timed(lambda: ref.score(flat, seq_lengths), max(1, cfg.repeats // 3)), nb)
+    hl_post = record("hmmlearn predict_proba (f64)", *timed(lambda: ref.predict_proba(flat, seq_lengths),
+                                                              max(1, cfg.repeats // 3)), nb)
+    jax.config.update("jax_enable_x64", True)
+    hmm64 = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float64), hmm)
+    X64 = jnp.asarray(X_np, jnp.float64)
+    ours_ll64 = record("ours log_likelihood (f64)", *timed(lambda: batch_log_likelihood(hmm64, X64, lengths), cfg.repeats), cfg.batch)
+    ours_post64 = record("ours posteriors (f64)", *timed(lambda: batch_posteriors(hmm64, X64, lengths), cfg.repeats), cfg.batch)
+    jax.config.update("jax_enable_x64", False)
+
+    results.update({
+        "loglik_seq_per_s": ours_ll,
+        "posterior_seq_per_s": ours_post,
+        "loglik_f64_seq_per_s": ours_ll64,
+        "posterior_f64_seq_per_s": ours_post64,
+        "dynamax_filter_seq_per_s": dyn_ll,
+        "dynamax_smoother_seq_per_s": dyn_post,
+        "dynamax_gaussianhmm_loglik_seq_per_s": gauss_ll,
+        "dynamax_gaussianhmm_posterior_seq_per_s": gauss_post,
+        "hmmlearn_score_seq_per_s": hl_ll,
+        "hmmlearn_posterior_seq_per_s": hl_post,
+        "ratio_loglik_vs_dynamax": ours_ll / dyn_ll,
+        "ratio_posterior_vs_dynamax": ours_post / dyn_post,
+        "ratio_loglik_vs_dynamax_gaussianhmm": ours_ll / gauss_ll,
+        "ratio_posterior_vs_dynamax_gaussianhmm": ours_post / gauss_post,
+        "ratio_loglik_vs_hmmlearn": ours_ll64 / hl_ll,
+        "ratio_posterior_vs_hmmlearn": ours_post64 / hl_post,
+        "em_iteration_s": em_s,
+        "em_iteration_compile_s": em_first - em_s,
+        "recognition_ms_per_seq": recognition_ms,
+        "recognition_accuracy_pointing": accuracy,
+    })
+    ratios = {k: v for k, v in results.items() if k.startswith("ratio_")}
+    for key, value in ratios.items():
+        print(f"{key:45s} {value:8.2f}x")
+    run.write_json("bench.json", results)
+    run.write_report("\n".join([
+        "# HMM benchmark: phmm_jax vs dynamax vs hmmlearn", "",
+        f"B = {cfg.batch}, T = {cfg.n_frames}, N = {cfg.n_states} x durations {cfg.min_duration}-{cfg.max_duration} "
+        f"({results['n_pseudo_states']} pseudo-states), D = {results['dim']}, full covariance, on {results['device']}.",
+        "hmmlearn scored {} sequences (float64).".format(nb), "",
+        markdown_table(["what", "seq/s", "ms per call", "compile + first call (s)"], rows), "",
+        markdown_table(["ratio", "value"], list(ratios.items())), "",
+        f"EM iteration on {cfg.em_sequences} sequences: {em_s:.3f} s. Recognition: {recognition_ms:.2f} ms per "
+        f"sequence (batch {cfg.recognition_batch}, 2 PHMMs of a 2x2 grid).",
+    ]))
+    print(f"wrote {run.path / 'bench.json'}")
+    return results
+
+
+if __name__ == "__main__":
+    main()

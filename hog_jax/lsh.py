@@ -1,0 +1,270 @@
+"""Hyperplane locality-sensitive hashing with exact re-ranking (GRASP §V, steps 1-4 and the query).
+
+Shapes: N database points, Q queries, D feature dimension, T tables, K hyperplanes (bits) per table,
+C candidates kept per table and query, k neighbours returned.
+
+Build (`build_index`): table t holds K random hyperplanes through the data mean (normal directions
+drawn i.i.d. N(0, I)); point x gets the K-bit code f_t(x) = sum_j [a_tj . (x - mean) > 0] 2^j and the
+bucket h(f) in a table of size H = 2^table_bits: h(f) = f when K <= table_bits, else the
+multiplicative (Fibonacci) hash (f * 2654435761 mod 2^32) >> (32 - table_bits). Each table is stored
+as its bucket ids sorted, with the point ids in that order (ties in random order), so a bucket is a
+contiguous run found with `searchsorted`; no Python dict.
+
+Query (`query`): per table the query's bucket run is read into a fixed buffer of C slots (a bucket
+with more than C points contributes a random C of them); the union over the T tables is de-duplicated
+by sorting, every candidate is re-ranked by its exact Euclidean distance and the k nearest are
+returned with their distances (-1 / inf where fewer than k were found), and the number of distinct
+candidates scanned. Queries are processed in batches by one jitted function.
+
+Parameters (`tune`): the paper learns K and T from the data for its epsilon; here the autotuner
+measures recall@k against exact search on held-out queries for a grid of K and T (the first t tables
+of one index per K) and returns the (K, T) that reaches the target recall with the fewest candidates
+scanned.
+"""
+from __future__ import annotations
+
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from lfd_common import as_array, check_int, check_real
+
+__all__ = ["LSHIndex", "LSHResult", "TuneResult", "build_index", "query", "recall_at_k", "tune"]
+
+_GOLDEN = np.uint32(2654435761)
+
+
+class LSHIndex(NamedTuple):
+    """An immutable LSH index (a pytree of arrays).
+
+    planes: (T, K, D) hyperplane normals.  center: (D,) the point the hyperplanes pass through.
+    data: (N, D) float32 database.  keys: (T, N) int32 sorted bucket ids.  order: (T, N) int32 point
+    ids in bucket order.  table_bits: () int32, log2 of the table size H.
+    """
+
+    planes: jax.Array
+    center: jax.Array
+    data: jax.Array
+    keys: jax.Array
+    order: jax.Array
+    table_bits: jax.Array
+
+
+class LSHResult(NamedTuple):
+    """indices (Q, k) int32 (-1 when not found), distances (Q, k) float32 (inf when not found),
+    n_scanned (Q,) int32 distinct candidates re-ranked."""
+
+    indices: jax.Array
+    distances: jax.Array
+    n_scanned: jax.Array
+
+
+def _bucket(codes, n_bits: int, table_bits):
+    """K-bit codes (..., uint32) -> bucket ids in [0, 2^table_bits) (int32)."""
+    hashed = (codes * _GOLDEN) >> (jnp.uint32(32) - table_bits.astype(jnp.uint32))
+    return jnp.where(n_bits <= table_bits, codes, hashed).astype(jnp.int32)
+
+
+def _codes(x, planes, center):
+    """(n, D) points -> (T, n) uint32 codes."""
+    T, K, D = planes.shape
+    proj = (x - center) @ planes.reshape(T * K, D).T  # (n, T K)
+    bits = (proj > 0).reshape(x.shape[0], T, K).astype(jnp.uint32)
+    return (bits << jnp.arange(K, dtype=jnp.uint32)).sum(-1, dtype=jnp.uint32).T
+
+
+@partial(jax.jit, static_argnames=("chunk",))
+def _build(key, data, planes, table_bits, chunk: int):
+    N, D = data.shape
+    T, K, _ = planes.shape
+    center = data.mean(axis=0)
+    n_chunks = -(-N // chunk)
+    padded = jnp.concatenate([data, jnp.zeros((n_chunks * chunk - N, D), data.dtype)])
+    codes = jax.lax.map(lambda x: _codes(x, planes, center), padded.reshape(n_chunks, chunk, D))
+    codes = jnp.moveaxis(codes, 0, 1).reshape(T, n_chunks * chunk)[:, :N]
+    buckets = _bucket(codes, K, table_bits)  # (T, N)
+    perm = jax.random.permutation(key, N).astype(jnp.int32)  # random order inside a bucket
+
+    def sort_table(b):
+        pos = jnp.argsort(b[perm], stable=True)
+        return b[perm][pos], perm[pos]
+
+    keys, order = jax.vmap(sort_table)(buckets)
+    return LSHIndex(planes, center, data, keys, order.astype(jnp.int32), table_bits)
+
+
+def build_index(key: jax.Array, data, n_bits: int, n_tables: int, table_bits: int = 20) -> LSHIndex:
+    """Build an LSH index of `data` (N, D) with `n_tables` tables of `n_bits` hyperplanes each.
+
+    key: a `jax.random` key. table_bits: log2 of the hash-table size H (1..31, default 20).
+    """
+    data = as_array(data, "data", ndim=2, dtype=np.float32)
+    check_int(n_bits, "n_bits", min_value=1, max_value=32)
+    check_int(n_tables, "n_tables", min_value=1)
+    check_int(table_bits, "table_bits", min_value=1, max_value=31)
+    N, D = data.shape
+    k_planes, k_perm = jax.random.split(key)
+    planes = jax.random.normal(k_planes, (n_tables, n_bits, D), jnp.float32)
+    chunk = max(1, min(N, (1 << 22) // (n_tables * n_bits)))
+    return _build(k_perm, jnp.asarray(data), planes, jnp.int32(table_bits), chunk)
+
+
+def _candidates(index: LSHIndex, q, n_per_table: int, n_tables_used, n_rerank: int):
+    """(D,) query -> (R,) distinct candidate ids, ascending, N-padded; and how many were distinct.
+
+    The T C bucket slots are compacted (cumsum + scatter, in table order) into a buffer of
+    G = min(T C, 4 R) slots, which is then sorted and de-duplicated: the sort costs O(G log G), not
+    O(T C log T C). When more than G slots are filled, the last tables' candidates are dropped.
+    """
+    T, K, _ = index.planes.shape
+    N = index.data.shape[0]
+    qb = _bucket(_codes(q[None], index.planes, index.center)[:, 0], K, index.table_bits)  # (T,)
+    lo = jax.vmap(lambda keys, b: jnp.searchsorted(keys, b, side="left"))(index.keys, qb)
+    hi = jax.vmap(lambda keys, b: jnp.searchsorted(keys, b, side="right"))(index.keys, qb)
+    pos = lo[:, None] + jnp.arange(n_per_table)  # (T, C)
+    ok = ((pos < hi[:, None]) & (jnp.arange(T)[:, None] < n_tables_used)).reshape(-1)
+    ids = jnp.take_along_axis(index.order, jnp.minimum(pos, N - 1), axis=1).reshape(-1)
+    G = min(T * n_per_table, 4 * n_rerank)
+    if G < T * n_per_table:
+        slot = jnp.cumsum(ok) - 1
+        ids = jnp.full((G,), N, ids.dtype).at[jnp.where(ok, slot, G)].set(ids, mode="drop")
+    else:
+        ids = jnp.where(ok, ids, N)
+    ids = jnp.sort(ids)
+    dup = jnp.concatenate([jnp.zeros((1,), bool), ids[1:] == ids[:-1]])
+    ids = jnp.where(dup, N, ids)
+    n_distinct = jnp.sum(ids < N).astype(jnp.int32)
+    if n_rerank < G:  # keep the first R distinct ids
+        ids = jnp.sort(ids)[:n_rerank]
+    return ids, n_distinct
+
+
+def _query_one(index: LSHIndex, q, k: int, n_per_table: int, n_tables_used, n_rerank: int):
+    N = index.data.shape[0]
+    ids, _ = _candidates(index, q, n_per_table, n_tables_used, n_rerank)
+    valid = ids < N
+    diff = index.data[jnp.minimum(ids, N - 1)] - q
+    d2 = jnp.where(valid, jnp.sum(diff * diff, axis=-1), jnp.inf)
+    neg, pos = jax.lax.top_k(-d2, k)
+    found = jnp.isfinite(neg)
+    return (jnp.where(found, ids[pos], -1).astype(jnp.int32), jnp.where(found, jnp.sqrt(-neg), jnp.inf),
+            valid.sum().astype(jnp.int32))
+
+
+@partial(jax.jit, static_argnames=("k", "n_per_table", "n_rerank", "chunk"))
+def _query(index: LSHIndex, queries, k: int, n_per_table: int, n_tables_used, n_rerank: int, chunk: int):
+    Q, D = queries.shape
+    n_chunks = -(-Q // chunk)
+    padded = jnp.concatenate([queries, jnp.broadcast_to(queries[:1], (n_chunks * chunk - Q, D))])
+    one = partial(_query_one, index, k=k, n_per_table=n_per_table, n_tables_used=n_tables_used,
+                  n_rerank=n_rerank)
+    idx, dist, n = jax.lax.map(jax.vmap(one), padded.reshape(n_chunks, chunk, D))
+    return LSHResult(idx.reshape(-1, k)[:Q], dist.reshape(-1, k)[:Q], n.reshape(-1)[:Q])
+
+
+def _check_queries(index: LSHIndex, queries, k: int):
+    N, D = index.data.shape
+    q = as_array(queries, "queries", ndim=(1, 2), dtype=np.float32)
+    single = q.ndim == 1
+    q = q[None] if single else q
+    if q.shape[1] != D:
+        raise ValueError(f"queries: expected dimension D = {D} (the database's), got {q.shape[1]}")
+    check_int(k, "k", min_value=1, max_value=N)
+    return q, single
+
+
+def query(index: LSHIndex, queries, k: int = 10, n_per_table: int = 64, n_tables: int | None = None,
+          max_rerank: int | None = None) -> LSHResult:
+    """The k approximate nearest neighbours of each query (Q, D) (or one (D,) query).
+
+    n_per_table: candidate slots per table and query (C; a larger bucket contributes a random C of
+    its points). n_tables: use only the first tables (default all). max_rerank: re-rank at most this
+    many distinct candidates (R; default T C, i.e. all; when more are found, the R with the smallest
+    ids are kept and n_scanned reports R); at most 4 R bucket slots are collected, in table order.
+    Returns an `LSHResult`.
+    """
+    q, single = _check_queries(index, queries, k)
+    check_int(n_per_table, "n_per_table", min_value=1)
+    T = index.planes.shape[0]
+    n_tables = T if n_tables is None else check_int(n_tables, "n_tables", min_value=1, max_value=T)
+    if n_tables < T:
+        index = index._replace(planes=index.planes[:n_tables], keys=index.keys[:n_tables],
+                               order=index.order[:n_tables])
+    slots = n_tables * n_per_table
+    R = slots if max_rerank is None else min(slots, check_int(max_rerank, "max_rerank", min_value=k))
+    chunk = max(1, min(q.shape[0], 16))
+    res = _query(index, jnp.asarray(q), k, n_per_table, jnp.int32(n_tables), R, chunk)
+    return LSHResult(*(a[0] for a in res)) if single else res
+
+
+def recall_at_k(found, truth) -> float:
+    """Mean over queries of |found_q ∩ truth_q| / k for (Q, k) index arrays (-1 = nothing found)."""
+    found, truth = np.asarray(found), np.asarray(truth)
+    if found.shape != truth.shape:
+        raise ValueError(f"found: expected shape {truth.shape} (the truth's), got {found.shape}")
+    hits = (found[:, :, None] == truth[:, None, :]) & (found[:, :, None] >= 0)
+    return float(hits.any(axis=2).sum(axis=1).mean() / truth.shape[1])
+
+
+class TuneResult(NamedTuple):
+    """n_bits (K), n_tables (T), n_per_table (C), max_rerank (R), recall (at k, on the held-out
+    queries, with these settings), mean_scanned (distinct candidates re-ranked per query), reached
+    (whether the target was met; if not, the highest-recall setting is returned) and table: rows
+    (K, T, recall, mean_scanned) of every (K, T) tried with R = T C."""
+
+    n_bits: int
+    n_tables: int
+    n_per_table: int
+    max_rerank: int
+    recall: float
+    mean_scanned: float
+    reached: bool
+    table: tuple
+
+
+def tune(key: jax.Array, data, queries, k: int = 10, target_recall: float = 0.9,
+         n_bits_grid=(8, 10, 12, 14, 16, 18, 20), n_tables_grid=(1, 2, 4, 8, 12, 16, 24, 32),
+         n_per_table: int = 64, table_bits: int = 20, truth=None) -> TuneResult:
+    """Pick (K, T) reaching recall@k >= target_recall on held-out `queries` (Q, D) (not in `data`)
+    with the fewest distinct candidates scanned, then the re-rank buffer R: the smallest power of two
+    >= the 99th percentile of distinct candidates that keeps the target (else R = T C).
+
+    For each K one index with max(T grid) tables is built and the first t tables are used for each t,
+    so the grid costs one build per K. `truth` (Q, k): exact neighbour ids if already known.
+    """
+    from hog_jax.knn import exact_search
+
+    data = as_array(data, "data", ndim=2, dtype=np.float32)
+    q = as_array(queries, "queries", shape=(None, data.shape[1]), dtype=np.float32)
+    check_int(k, "k", min_value=1, max_value=data.shape[0])
+    check_int(n_per_table, "n_per_table", min_value=1)
+    check_real(target_recall, "target_recall", min_value=0.0, max_value=1.0)
+    truth = np.asarray(exact_search(data, q, k).indices if truth is None else truth)
+    if truth.shape != (q.shape[0], k):
+        raise ValueError(f"truth: expected shape {(q.shape[0], k)}, got {truth.shape}")
+    t_max = max(n_tables_grid)
+    chunk = max(1, min(q.shape[0], 16))
+    qj = jnp.asarray(q)
+    rows = []
+    for i, n_bits in enumerate(n_bits_grid):  # a grid search: one build per K
+        index = build_index(jax.random.fold_in(key, i), data, n_bits, t_max, table_bits)
+        for t in sorted(n_tables_grid):  # the first t tables, masked: one compiled query for all t
+            res = _query(index, qj, k, n_per_table, jnp.int32(t), t_max * n_per_table, chunk)
+            rows.append((int(n_bits), int(t), recall_at_k(res.indices, truth), float(np.mean(res.n_scanned))))
+    ok = [r for r in rows if r[2] >= target_recall]
+    best = min(ok, key=lambda r: r[3]) if ok else max(rows, key=lambda r: (r[2], -r[3]))
+    K, T, recall, scanned = best
+    R = T * n_per_table
+    if ok:
+        index = build_index(jax.random.fold_in(key, list(n_bits_grid).index(K)), data, K, t_max, table_bits)
+        res = query(index, q, k, n_per_table, T)
+        r_try = int(2 ** np.ceil(np.log2(max(k, np.percentile(np.asarray(res.n_scanned), 99)))))
+        if r_try < R:
+            res = query(index, q, k, n_per_table, T, max_rerank=r_try)
+            rec = recall_at_k(res.indices, truth)
+            if rec >= target_recall:
+                R, recall, scanned = r_try, rec, float(np.mean(res.n_scanned))
+    return TuneResult(K, T, n_per_table, R, recall, scanned, bool(ok), tuple(rows))

@@ -1,0 +1,280 @@
+"""Hand segmentation by skin colour (GRASP §III-A; skin GMM as the level-set report §3.3).
+
+Shapes: B frames, H x W pixels, N training pixels, P = 2 chroma channels, G mixture components,
+S output side.
+
+Pipeline (`segment`):
+1. chroma: (Cr, Cb) of ITU-R BT.601 YCrCb (as OpenCV's `COLOR_RGB2YCrCb`), scaled to [0, 1]; the
+   luma is dropped so the model is insensitive to brightness;
+2. per-pixel log-likelihood ratio  log p_skin(c) - log p_background(c), both Gaussian mixtures
+   (4 full-covariance components each by default) fitted by EM (`fit_gmm`, jitted, fixed iterations);
+3. skin = ratio > threshold (0 by default: equal priors);
+4. a 3 x 3 median filter applied three times (GRASP): on a binary mask the median is the majority
+   of the 9 pixels; borders replicate (as `cv2.medianBlur`); batched in JAX;
+5. connected components (8-connectivity, OpenCV, one call for the whole batch stacked with blank
+   separator rows); the component containing or nearest to the frame's seed point (row, col), or the
+   largest when no seed is given;
+6. its bounding box, grown by `margin` (a fraction of its larger side) on every side and made
+   square (so the hand keeps its aspect ratio), is cropped from the grayscale frame
+   (0.299 R + 0.587 G + 0.114 B, scaled to [0, 1]) with the pixels outside the component set to 0
+   (black background, as GRASP's segmented images), and resampled to S x S (bilinear, antialiased;
+   batched in JAX); the component mask is resampled likewise (kept where > 0.5) so that `hog` can
+   exclude the background.
+A frame without skin gives found = False, a zero image, an all-False mask and box (-1, -1, -1, -1).
+"""
+from __future__ import annotations
+
+from functools import partial
+from pathlib import Path
+from typing import NamedTuple
+
+import cv2
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from lfd_common import as_array, check_int, check_real, load_arrays, save_arrays
+
+__all__ = [
+    "GMM", "Segmentation", "SkinModel", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
+    "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
+]
+
+
+class GMM(NamedTuple):
+    """Gaussian mixture: log_weights (G,), means (G, P), chols (G, P, P) lower Cholesky factors."""
+
+    log_weights: jax.Array
+    means: jax.Array
+    chols: jax.Array
+
+
+class SkinModel(NamedTuple):
+    """Skin and background mixtures over chroma, and the log-ratio threshold ()."""
+
+    skin: GMM
+    background: GMM
+    threshold: jax.Array
+
+
+class Segmentation(NamedTuple):
+    """images (B, S, S) float32 grayscale crops (background 0); masks (B, S, S) bool; found (B,) bool;
+    boxes (B, 4) int32 (top, left, bottom, right), bottom/right exclusive, in frame pixels (may reach
+    outside the frame, which is padded with background); skin (B, H, W) bool, the filtered skin mask."""
+
+    images: jax.Array
+    masks: jax.Array
+    found: jax.Array
+    boxes: jax.Array
+    skin: jax.Array
+
+
+def rgb_to_chroma(rgb) -> jax.Array:
+    """(..., 3) RGB in [0, 255] -> (..., 2) (Cr, Cb) / 255 of BT.601 YCrCb (OpenCV's coefficients)."""
+    rgb = jnp.asarray(rgb, jnp.float32)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    y = 0.299 * r + 0.587 * g + 0.114 * b
+    cr = (r - y) * 0.713 + 128.0
+    cb = (b - y) * 0.564 + 128.0
+    return jnp.stack([cr, cb], axis=-1) / 255.0
+
+
+def gmm_log_prob(gmm: GMM, x) -> jax.Array:
+    """log p(x) under the mixture for x (..., P) -> (...)."""
+    x = jnp.asarray(x)
+    P = x.shape[-1]
+    diff = x[..., None, :] - gmm.means  # (..., G, P)
+    sol = jax.scipy.linalg.solve_triangular(
+        gmm.chols, jnp.moveaxis(diff.reshape(-1, *diff.shape[-2:]), 0, -1), lower=True)  # (G, P, n)
+    maha = jnp.sum(sol * sol, axis=-2).T.reshape(diff.shape[:-1])  # (..., G)
+    logdet = jnp.sum(jnp.log(jnp.diagonal(gmm.chols, axis1=-2, axis2=-1)), axis=-1)
+    comp = gmm.log_weights - 0.5 * maha - logdet - 0.5 * P * jnp.log(2 * jnp.pi)
+    return jax.nn.logsumexp(comp, axis=-1)
+
+
+@partial(jax.jit, static_argnames=("n_components",))
+def _em(key, x, n_components: int, n_iter: int, reg):
+    N, P = x.shape
+    G = n_components
+    means = x[jax.random.choice(key, N, (G,), replace=False)]
+    cov = jnp.cov(x.T).reshape(P, P) + reg * jnp.eye(P)
+    chols = jnp.broadcast_to(jnp.linalg.cholesky(cov), (G, P, P))
+    gmm = GMM(jnp.full((G,), -jnp.log(G)), means, chols)
+
+    def step(_, gmm):
+        diff = x[:, None, :] - gmm.means
+        sol = jax.scipy.linalg.solve_triangular(gmm.chols, jnp.moveaxis(diff, 0, -1), lower=True)
+        maha = jnp.sum(sol * sol, axis=-2).T  # (N, G)
+        logdet = jnp.sum(jnp.log(jnp.diagonal(gmm.chols, axis1=-2, axis2=-1)), axis=-1)
+        logp = gmm.log_weights - 0.5 * maha - logdet
+        resp = jax.nn.softmax(logp, axis=1)  # E step
+        nk = resp.sum(0) + 1e-10  # M step
+        mu = (resp.T @ x) / nk[:, None]
+        d = x[:, None, :] - mu
+        cov = jnp.einsum("ng,ngi,ngj->gij", resp, d, d) / nk[:, None, None] + reg * jnp.eye(P)
+        return GMM(jnp.log(nk / N), mu, jnp.linalg.cholesky(cov))
+
+    return jax.lax.fori_loop(0, n_iter, step, gmm)
+
+
+def fit_gmm(key: jax.Array, x, n_components: int = 4, n_iter: int = 100, reg: float = 1e-5) -> GMM:
+    """Fit a full-covariance GMM to x (N, P) by EM (`n_iter` iterations, means initialised at random
+    data points, covariances at the data covariance, `reg` added to every covariance's diagonal)."""
+    x = as_array(x, "x", ndim=2, dtype=np.float32)
+    G = check_int(n_components, "n_components", min_value=1, max_value=x.shape[0])
+    check_int(n_iter, "n_iter", min_value=0)
+    check_real(reg, "reg", min_value=0.0, exclusive_min=True)
+    return _em(key, jnp.asarray(x), G, jnp.int32(n_iter), jnp.float32(reg))
+
+
+def fit_skin_model(key: jax.Array, skin_rgb, background_rgb, n_components: int = 4,
+                   n_background: int = 4, threshold: float = 0.0, n_iter: int = 100) -> SkinModel:
+    """Fit skin and background GMMs on chroma from labelled RGB pixels (N, 3) and (M, 3) in [0, 255]."""
+    skin = as_array(skin_rgb, "skin_rgb", shape=(None, 3), min_value=0, max_value=255)
+    bg = as_array(background_rgb, "background_rgb", shape=(None, 3), min_value=0, max_value=255)
+    check_real(threshold, "threshold")
+    k1, k2 = jax.random.split(key)
+    return SkinModel(fit_gmm(k1, np.asarray(rgb_to_chroma(skin)), n_components, n_iter),
+                     fit_gmm(k2, np.asarray(rgb_to_chroma(bg)), n_background, n_iter),
+                     jnp.float32(threshold))
+
+
+@jax.jit
+def _log_ratio(model: SkinModel, rgb):
+    c = rgb_to_chroma(rgb)
+    return gmm_log_prob(model.skin, c) - gmm_log_prob(model.background, c)
+
+
+def skin_log_ratio(model: SkinModel, rgb) -> jax.Array:
+    """log p_skin - log p_background per pixel of RGB values (..., 3) in [0, 255]."""
+    arr = as_array(rgb, "rgb", dtype=np.float32, min_value=0, max_value=255)
+    if arr.shape[-1] != 3:
+        raise ValueError(f"rgb: expected a last axis of 3 (R, G, B), got shape {arr.shape}")
+    return _log_ratio(model, jnp.asarray(arr))
+
+
+@partial(jax.jit, static_argnames=("times",))
+def median3(mask, times: int = 3) -> jax.Array:
+    """3 x 3 median filter of binary masks (B, H, W), applied `times` times (replicated borders)."""
+    def once(m, _):
+        p = jnp.pad(m.astype(jnp.int32), ((0, 0), (1, 1), (1, 1)), mode="edge")
+        H, W = m.shape[1:]
+        s = sum(p[:, i:i + H, j:j + W] for i in range(3) for j in range(3))
+        return s >= 5, None
+
+    out, _ = jax.lax.scan(once, jnp.asarray(mask, bool), None, length=times)
+    return out
+
+
+@jax.jit
+def _skin_masks(model: SkinModel, frames, threshold):
+    return median3(_log_ratio(model, frames) > threshold, 3)
+
+
+def _components(masks: np.ndarray):
+    """Label 8-connected components of all frames with one OpenCV call.
+
+    Returns labels (B, H, W) int32 (0 = background, global ids) and stats (n_labels, 5) rows of
+    (left, top, width, height, area) from `cv2.connectedComponentsWithStats`, top in the coordinates
+    of the component's own frame.
+    """
+    B, H, W = masks.shape
+    stacked = np.zeros((B, H + 1, W), np.uint8)  # a blank row after every frame separates them
+    stacked[:, :H] = masks
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(stacked.reshape(B * (H + 1), W), connectivity=8)
+    stats = stats.copy()
+    stats[:, cv2.CC_STAT_TOP] %= H + 1  # a component never crosses a separator row
+    return labels.reshape(B, H + 1, W)[:, :H], stats
+
+
+@partial(jax.jit, static_argnames=("size",))
+def _crops(gray, comp, top, left, side, size: int):
+    """Resample the square boxes (top, left, side) of gray (B, H, W) and comp masks to (B, size, size)."""
+    def one(g, m, t, l, s):
+        scale = size / s
+        trans = jnp.stack([-t * scale, -l * scale])
+        sc = jnp.stack([scale, scale])
+        img = jax.image.scale_and_translate(g * m, (size, size), (0, 1), sc, trans, "linear", antialias=True)
+        msk = jax.image.scale_and_translate(m, (size, size), (0, 1), sc, trans, "linear", antialias=True)
+        return img, msk > 0.5
+    return jax.vmap(one)(gray, comp, top, left, side)
+
+
+def segment(model: SkinModel, frames, seed_points=None, out_size: int = 64, margin: float = 0.1,
+            threshold: float | None = None) -> Segmentation:
+    """Segment the hand in each RGB frame (B, H, W, 3) (uint8 or real in [0, 255]).
+
+    seed_points: optional (B, 2) (row, col) per frame: the component containing the seed, or the one
+    with the pixel nearest to it, is kept; without seeds the largest component is kept.
+    out_size: S, the side of the returned crops. margin: box growth as a fraction of its larger side.
+    threshold: log-ratio threshold (default: the model's). Returns a `Segmentation`.
+    """
+    arr = as_array(frames, "frames", ndim=4, dtype=np.float32, min_value=0, max_value=255)
+    B, H, W, ch = arr.shape
+    if ch != 3:
+        raise ValueError(f"frames: expected (B, H, W, 3) RGB frames, got shape {arr.shape}")
+    S = check_int(out_size, "out_size", min_value=1)
+    margin = check_real(margin, "margin", min_value=0.0)
+    thr = model.threshold if threshold is None else jnp.float32(check_real(threshold, "threshold"))
+    seeds = None
+    if seed_points is not None:
+        seeds = as_array(seed_points, "seed_points", shape=(B, 2))
+    x = jnp.asarray(arr)
+    skin = np.asarray(_skin_masks(model, x, thr))
+    labels, stats = _components(skin)
+    n_labels = stats.shape[0]
+    # choose one component per frame, vectorised over all labelled pixels
+    fb, fr, fc = np.nonzero(labels)
+    lab = labels[fb, fr, fc]
+    if seeds is None:
+        score = stats[:, cv2.CC_STAT_AREA].astype(np.float64)  # larger is better
+        best_score = np.full(B, -np.inf)
+        np.maximum.at(best_score, fb, score[lab])
+        chosen = np.full(B, -1)
+        hit = score[lab] == best_score[fb]
+        chosen[fb[hit]] = lab[hit]  # ties: any of the largest
+    else:
+        d2 = (fr - seeds[fb, 0]) ** 2 + (fc - seeds[fb, 1]) ** 2
+        best = np.full(B, np.inf)
+        np.minimum.at(best, fb, d2)
+        chosen = np.full(B, -1)
+        hit = d2 == best[fb]
+        chosen[fb[hit]] = lab[hit]
+    found = chosen > 0
+    safe = np.where(found, chosen, 0)
+    left, top = stats[safe, cv2.CC_STAT_LEFT], stats[safe, cv2.CC_STAT_TOP]
+    w, h = stats[safe, cv2.CC_STAT_WIDTH], stats[safe, cv2.CC_STAT_HEIGHT]
+    side = np.ceil(np.maximum(w, h) * (1.0 + 2.0 * margin)).astype(np.int64)
+    side = np.maximum(side, 1)
+    top = top + h // 2 - side // 2
+    left = left + w // 2 - side // 2
+    comp = (labels == np.where(found, chosen, n_labels)[:, None, None])
+    gray = (arr @ np.array([0.299, 0.587, 0.114], np.float32)) / 255.0
+    imgs, masks = _crops(jnp.asarray(gray), jnp.asarray(comp, jnp.float32), jnp.asarray(top, jnp.float32),
+                         jnp.asarray(left, jnp.float32), jnp.asarray(side, jnp.float32), S)
+    f = jnp.asarray(found)
+    imgs = jnp.where(f[:, None, None], imgs, 0.0)
+    masks = masks & f[:, None, None]
+    boxes = np.where(found[:, None], np.stack([top, left, top + side, left + side], 1), -1).astype(np.int32)
+    return Segmentation(imgs, masks, f, jnp.asarray(boxes), jnp.asarray(skin))
+
+
+_KIND = "hog_jax.SkinModel"
+
+
+def save_skin_model(path: str | Path, model: SkinModel) -> Path:
+    """Write a `SkinModel` to an .npz (lfd_common format, kind "hog_jax.SkinModel")."""
+    arrays = {f"{part}_{field}": np.asarray(getattr(getattr(model, part), field))
+              for part in ("skin", "background") for field in GMM._fields}
+    arrays["threshold"] = np.asarray(model.threshold)
+    return save_arrays(path, _KIND, arrays, {"chroma": "CrCb/255 BT.601"})
+
+
+def load_skin_model(path: str | Path) -> SkinModel:
+    """Read a `SkinModel` written by `save_skin_model` (clear ValueError on a wrong or corrupt file)."""
+    arrays, _, _ = load_arrays(path, _KIND)
+    try:
+        parts = {p: GMM(*(jnp.asarray(arrays[f"{p}_{f}"]) for f in GMM._fields)) for p in ("skin", "background")}
+        return SkinModel(parts["skin"], parts["background"], jnp.asarray(arrays["threshold"]))
+    except KeyError as err:
+        raise ValueError(f"path: {path} lacks the array {err}") from err

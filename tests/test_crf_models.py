@@ -1,0 +1,225 @@
+"""HCRF, FCRF (exact and loopy BP), CHCRF fusion and history prior, linear baselines."""
+import itertools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import crf_jax
+from crf_jax import fcrf, hcrf
+
+
+@pytest.fixture
+def x64():
+    with jax.enable_x64(True):
+        yield
+
+
+def _lse(a, axis=None):
+    m = np.max(a, axis=axis, keepdims=True)
+    return np.squeeze(m + np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)), axis=axis)
+
+
+# ----------------------------------------------------------------------------------------------
+# HCRF
+# ----------------------------------------------------------------------------------------------
+def test_hcrf_log_probs_match_enumeration_over_hidden_paths(x64):
+    rng = np.random.default_rng(0)
+    D, K, H, T = 3, 2, 2, 4
+    model = crf_jax.HCRF(jnp.asarray(rng.normal(size=(3, D, K, H))), jnp.asarray(rng.normal(size=(K, H))),
+                         jnp.asarray(rng.normal(size=(K, H, H))))  # connectivity 1
+    X = rng.normal(size=(2, T, D))
+    lengths = np.array([4, 3])
+    got = np.asarray(hcrf.log_probs_jit(model, jnp.asarray(X), jnp.asarray(lengths)))
+    W, b, tr = (np.asarray(a) for a in model)
+    for n in range(2):
+        L = lengths[n]
+        Xp = np.zeros((T + 2, D))
+        Xp[1 : 1 + L] = X[n, :L]
+        unary = np.stack([np.einsum("cd,cdkh->kh", Xp[t : t + 3], W) + b for t in range(L)])  # (L, K, H)
+        s = np.array([
+            _lse(np.array([unary[np.arange(L), y, list(h)].sum() + sum(tr[y, h[t - 1], h[t]] for t in range(1, L))
+                           for h in itertools.product(range(H), repeat=L)]))
+            for y in range(K)
+        ])
+        np.testing.assert_allclose(got[n], s - _lse(s), rtol=1e-10)
+
+
+def test_fit_hcrf_classifies_separable_sequences():
+    rng = np.random.default_rng(1)
+    y = rng.integers(0, 2, 40)
+    X = rng.normal(size=(40, 8, 2)).astype(np.float32)
+    X[:, :, 0] += np.where(y == 1, 1.5, -1.5)[:, None]
+    model, info = crf_jax.fit_hcrf(X, y, n_hidden=2, l2=0.1, max_iter=50)
+    assert np.mean(crf_jax.hcrf_predict(model, X) == y) > 0.9
+    with pytest.raises(ValueError, match="y"):
+        crf_jax.fit_hcrf(X, np.append(y, 1), n_hidden=2)
+
+
+# ----------------------------------------------------------------------------------------------
+# FCRF
+# ----------------------------------------------------------------------------------------------
+def _fcrf_problem(seed, T=4, Ka=2, Ko=3, couple=1.0, to_scale=1.0):
+    rng = np.random.default_rng(seed)
+    return (rng.normal(size=(1, T, Ka)), rng.normal(size=(1, T, Ko)), rng.normal(size=(Ka, Ka)),
+            to_scale * rng.normal(size=(Ko, Ko)), couple * rng.normal(size=(Ka, Ko)))
+
+
+def _fcrf_enumerate(ua, uo, Ta, To, C, L):
+    Ka, Ko = C.shape
+    rows = []
+    for a in itertools.product(range(Ka), repeat=L):
+        for o in itertools.product(range(Ko), repeat=L):
+            s = sum(ua[t, a[t]] + uo[t, o[t]] + C[a[t], o[t]] for t in range(L))
+            s += sum(Ta[a[t - 1], a[t]] + To[o[t - 1], o[t]] for t in range(1, L))
+            rows.append((a, o, s))
+    scores = np.array([r[2] for r in rows])
+    log_z = _lse(scores)
+    ma, mo = np.zeros((ua.shape[0], Ka)), np.zeros((ua.shape[0], Ko))
+    for a, o, s in rows:
+        ma[np.arange(L), list(a)] += np.exp(s - log_z)
+        mo[np.arange(L), list(o)] += np.exp(s - log_z)
+    return log_z, ma, mo
+
+
+def test_fcrf_exact_matches_enumeration(x64):
+    ua, uo, Ta, To, C = _fcrf_problem(2)
+    lengths = jnp.array([3])
+    log_z, ma, mo = _fcrf_enumerate(ua[0], uo[0], Ta, To, C, 3)
+    args = [jnp.asarray(a) for a in (ua, uo, Ta, To, C)]
+    np.testing.assert_allclose(fcrf.exact_log_partition(*args, lengths), [log_z], rtol=1e-12)
+    ga, go = fcrf.exact_marginals(*args, lengths)
+    np.testing.assert_allclose(ga[0], ma, atol=1e-12)
+    np.testing.assert_allclose(go[0], mo, atol=1e-12)
+
+
+@pytest.mark.parametrize("case", ["comb", "single_frame"])
+def test_loopy_bp_is_exact_on_trees(x64, case):
+    # comb: object transitions constant -> the ladder's loops carry no information (a tree in effect);
+    # single_frame: T = 1, the graph is one edge.
+    if case == "comb":
+        ua, uo, Ta, To, C = _fcrf_problem(3, T=5, to_scale=0.0, couple=2.0)
+        lengths = jnp.array([5])
+    else:
+        ua, uo, Ta, To, C = _fcrf_problem(4, T=1, couple=2.0)
+        lengths = jnp.array([1])
+    args = [jnp.asarray(a) for a in (ua, uo, Ta, To, C)]
+    bp = fcrf.loopy_bp(*args, lengths, n_iter=10)
+    np.testing.assert_allclose(bp.log_z, fcrf.exact_log_partition(*args, lengths), rtol=1e-10)
+    ea, eo = fcrf.exact_marginals(*args, lengths)
+    np.testing.assert_allclose(bp.action, ea, atol=1e-10)
+    np.testing.assert_allclose(bp.object, eo, atol=1e-10)
+
+
+def test_loopy_bp_approximates_a_weakly_coupled_ladder(x64):
+    ua, uo, Ta, To, C = _fcrf_problem(5, T=5, couple=0.3)
+    args = [jnp.asarray(a) for a in (ua, uo, Ta, To, C)]
+    lengths = jnp.array([5])
+    bp = fcrf.loopy_bp(*args, lengths, n_iter=30)
+    exact = fcrf.exact_log_partition(*args, lengths)
+    assert abs(float(bp.log_z[0] - exact[0])) < 1e-2
+    ea, _ = fcrf.exact_marginals(*args, lengths)
+    np.testing.assert_allclose(bp.action, ea, atol=1e-2)
+    # the gradient through the unrolled BP rounds is the gradient of the Bethe log Z (finite differences)
+    def bethe(c):
+        return fcrf.loopy_bp(args[0], args[1], args[2], args[3], c, lengths, n_iter=30).log_z.sum()
+
+    g = np.asarray(jax.grad(bethe)(args[4]))
+    eps = 1e-6
+    for i, j in [(0, 0), (1, 2)]:
+        e = jnp.zeros_like(args[4]).at[i, j].set(eps)
+        np.testing.assert_allclose(g[i, j], (bethe(args[4] + e) - bethe(args[4] - e)) / (2 * eps), rtol=1e-5)
+
+
+def test_fit_fcrf_exact_and_loopy_and_segments():
+    rng = np.random.default_rng(6)
+    B, T = 30, 6
+    a = rng.integers(0, 2, B)
+    o = a.copy()  # perfectly co-occurring pairs
+    X = rng.normal(size=(B, T, 2)).astype(np.float32)
+    X[:, :, 0] += np.where(a == 1, 1.0, -1.0)[:, None]
+    ya, yo = np.repeat(a[:, None], T, 1), np.repeat(o[:, None], T, 1)
+    lengths = rng.integers(3, T + 1, B)
+    # exact inference with L-BFGS; loopy BP with Adam (one BP graph to compile instead of two: fast tests)
+    for inference, method in (("exact", "lbfgs"), ("loopy", "adam")):
+        model, info = crf_jax.fit_fcrf(X, ya, yo, lengths, l2=0.1, inference=inference, method=method,
+                                       learning_rate=0.1, max_iter=60)
+        pa, po = crf_jax.fcrf_predict_segments(model, X, lengths, method=inference)
+        assert np.mean(pa == a) > 0.8 and np.mean(po == o) > 0.8
+    lp = np.asarray(crf_jax.fcrf_segment_log_probs(model, X, lengths))
+    assert np.all(np.exp(lp).sum(axis=(1, 2)) <= 1 + 1e-5)
+    with pytest.raises(ValueError, match="y_object"):
+        crf_jax.fit_fcrf(X, ya, yo[:-1], lengths)
+
+
+# ----------------------------------------------------------------------------------------------
+# CHCRF
+# ----------------------------------------------------------------------------------------------
+def test_chcrf_fusion_and_normaliser_by_hand():
+    K = crf_jax.cooccurrence([0, 0, 1, 2, 2, 2], [0, 0, 1, 1, 2, 2], 3, 3)
+    np.testing.assert_allclose(K, np.array([[2, 0, 0], [0, 1, 0], [0, 1, 2]]) / 6)
+    Ks = crf_jax.cooccurrence([0], [1], 2, 2, smoothing=0.5)
+    np.testing.assert_allclose(Ks, np.array([[0.5, 1.5], [0.5, 0.5]]) / 3)
+    pa = np.array([[0.6, 0.3, 0.1]])
+    po = np.array([[0.2, 0.5, 0.3]])
+    res = crf_jax.fuse(np.log(pa), np.log(po), K)
+    joint = K * pa[0][:, None] * po[0][None, :]
+    Z = joint.sum()  # = (2*0.6*0.2 + 0.3*0.5 + 0.1*0.5 + 2*0.1*0.3) / 6
+    np.testing.assert_allclose(Z, (0.24 + 0.15 + 0.05 + 0.06) / 6)
+    np.testing.assert_allclose(np.exp(res.log_z), [Z], rtol=1e-6)
+    np.testing.assert_allclose(np.exp(res.log_joint[0]), joint / Z, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(np.exp(res.log_action[0]), (joint / Z).sum(1), rtol=1e-5)
+    assert np.all(np.exp(res.log_joint[0])[K == 0] == 0)  # unseen pairs without smoothing: impossible
+    with pytest.raises(ValueError, match="log_p_object"):
+        crf_jax.fuse(np.log(pa), np.log(np.vstack([po, po])), K)
+    with pytest.raises(ValueError, match="cooc"):
+        crf_jax.fuse(np.log(pa), np.log(po), K[:2])
+    with pytest.raises(ValueError, match="objects"):
+        crf_jax.cooccurrence([0, 1], [0], 2, 2)
+
+
+def test_history_prior_eq10():
+    hist = np.zeros((2, 2, 2))
+    hist[0, 0, 0] = hist[1, 1, 1] = 1.0
+    pos = np.array([[0.0, 0.0], [3.0, 4.0]])
+    prior = crf_jax.history_prior(hist, pos, np.array([0.0, 1.0]), default_distance=2.0)
+    # (1/3) (0.25/2 + P_1/1 + P_2/sqrt(9+9))
+    expect = (np.full((2, 2), 0.25 / 2) + hist[0] / 1.0 + hist[1] / np.sqrt(18.0)) / 3
+    np.testing.assert_allclose(prior, expect)
+    empty = crf_jax.history_prior(np.zeros((0, 2, 2)), np.zeros((0, 2)), np.zeros(2), default_distance=1.0)
+    np.testing.assert_allclose(empty, np.full((2, 2), 0.25))
+    lj, log_norm = crf_jax.apply_history(np.log(np.full((2, 2), 0.25)), prior)
+    np.testing.assert_allclose(np.exp(lj), prior / prior.sum())
+    np.testing.assert_allclose(log_norm, np.log(0.25 * prior.sum()))
+    with pytest.raises(ValueError, match="default_distance"):
+        crf_jax.history_prior(hist, pos, np.zeros(2), default_distance=0.0)
+    with pytest.raises(ValueError, match="history_positions"):
+        crf_jax.history_prior(hist, pos[:1], np.zeros(2), default_distance=1.0)
+
+
+def test_chcrf_from_chain_segment_probabilities():
+    rng = np.random.default_rng(7)
+    m = crf_jax.ChainCRF(jnp.asarray(rng.normal(size=(1, 2, 3)), jnp.float32), jnp.zeros(3), jnp.zeros((3, 3)))
+    X = rng.normal(size=(2, 5, 2)).astype(np.float32)
+    la = crf_jax.segment_log_probs(m, X, [5, 2])
+    res = crf_jax.fuse(np.asarray(la), np.asarray(la), np.eye(3) / 3)
+    np.testing.assert_allclose(np.exp(res.log_joint).sum(axis=(1, 2)), 1.0, rtol=1e-5)
+
+
+# ----------------------------------------------------------------------------------------------
+# linear baselines
+# ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kind", ["logistic", "svm"])
+def test_linear_baselines(kind):
+    rng = np.random.default_rng(8)
+    y = rng.integers(0, 3, 300)
+    centers = np.array([[2.0, 0.0], [-1.0, 1.7], [-1.0, -1.7]])
+    X = centers[y] + 0.5 * rng.normal(size=(300, 2))
+    model, info = crf_jax.fit_linear(X, y, kind=kind, l2=0.01, max_iter=300, learning_rate=0.05)
+    assert np.mean(crf_jax.linear_predict(model, X) == y) > 0.97
+    if kind == "logistic":
+        lp = np.asarray(crf_jax.linear_log_proba(model, X))
+        np.testing.assert_allclose(np.exp(lp).sum(1), 1.0, rtol=1e-5)
+    with pytest.raises(ValueError, match="X"):
+        crf_jax.linear_predict(model, X[:, :1])

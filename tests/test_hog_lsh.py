@@ -1,0 +1,113 @@
+"""hog_jax.lsh: recall against exact brute force, bucket structure, candidate counting, autotuning."""
+import jax
+import numpy as np
+import pytest
+
+from hog_jax import build_index, query, recall_at_k, tune
+from hog_jax.lsh import _bucket
+
+
+def clustered(rng, n, d=16, centres=40):
+    """Points around random cluster centres (HOG-like: structured, not uniform)."""
+    c = rng.normal(size=(centres, d))
+    return (c[rng.integers(0, centres, n)] + 0.3 * rng.normal(size=(n, d))).astype(np.float32)
+
+
+def brute(data, q, k):
+    d = ((q[:, None, :].astype(np.float64) - data[None]) ** 2).sum(-1)
+    return np.argsort(d, axis=1, kind="stable")[:, :k]
+
+
+@pytest.fixture(scope="module")
+def setup():
+    rng = np.random.default_rng(0)
+    data = clustered(rng, 4000)
+    q = clustered(np.random.default_rng(1), 100)
+    return data, q, brute(data, q, 10)
+
+
+def test_buckets_are_the_sign_codes(setup):
+    data, _, _ = setup
+    idx = build_index(jax.random.key(0), data, n_bits=6, n_tables=3)
+    planes, center = np.asarray(idx.planes), np.asarray(idx.center)
+    bits = ((data - center) @ planes.transpose(0, 2, 1) > 0)  # (T, N, K)
+    codes = (bits * (1 << np.arange(6))).sum(-1)
+    for t in range(3):  # K <= table_bits: the bucket is the code itself; the table lists every point once
+        order = np.asarray(idx.order[t])
+        assert sorted(order.tolist()) == list(range(len(data)))
+        np.testing.assert_array_equal(np.asarray(idx.keys[t]), codes[t][order])
+        assert np.all(np.diff(np.asarray(idx.keys[t])) >= 0)
+
+
+def test_hash_into_small_table():
+    codes = jax.numpy.arange(1 << 12, dtype=jax.numpy.uint32)
+    b = np.asarray(_bucket(codes, 12, jax.numpy.int32(5)))
+    assert b.min() >= 0 and b.max() < 32 and len(np.unique(b)) == 32  # H = 2^5 buckets, all used
+
+
+def test_one_table_returns_exactly_the_bucket(setup):
+    """With T = 1 and room for every bucket member, the candidates are the query's bucket, ranked exactly."""
+    data, q, _ = setup
+    idx = build_index(jax.random.key(3), data, n_bits=4, n_tables=1)
+    res = query(idx, q, k=5, n_per_table=4000)
+    planes, center = np.asarray(idx.planes[0]), np.asarray(idx.center)
+    code = lambda x: (((x - center) @ planes.T > 0) * (1 << np.arange(4))).sum(-1)
+    cd, cq = code(data), code(q)
+    for i in range(len(q)):
+        members = np.nonzero(cd == cq[i])[0]
+        assert int(res.n_scanned[i]) == len(members)
+        want = members[brute(data[members], q[i:i + 1], min(5, len(members)))[0]]
+        np.testing.assert_array_equal(np.asarray(res.indices[i][:len(want)]), want)
+
+
+def test_recall_grows_with_tables_and_reaches_exact(setup):
+    data, q, truth = setup
+    idx = build_index(jax.random.key(1), data, n_bits=6, n_tables=32)
+    recalls = [recall_at_k(query(idx, q, 10, 512, t).indices, truth) for t in (1, 4, 32)]
+    assert recalls[0] < recalls[1] < recalls[2]
+    assert recalls[2] >= 0.9
+    res = query(idx, q, 10, 512)
+    assert float(np.mean(res.n_scanned)) < len(data) / 2  # it did not scan everything
+    # distances are exact Euclidean distances of the returned points, ascending
+    found = np.asarray(res.indices)
+    d = np.linalg.norm(data[np.maximum(found, 0)] - q[:, None], axis=-1)
+    np.testing.assert_allclose(np.where(found >= 0, np.asarray(res.distances), 0), np.where(found >= 0, d, 0), rtol=1e-4, atol=1e-5)
+    assert np.all(np.diff(np.asarray(res.distances), axis=1) >= 0)
+
+
+def test_no_duplicates_and_missing_marked(setup):
+    data, q, _ = setup
+    idx = build_index(jax.random.key(2), data, n_bits=16, n_tables=8)
+    res = query(idx, q, 10, 8)
+    ids = np.asarray(res.indices)
+    for row, n in zip(ids, np.asarray(res.n_scanned)):
+        real = row[row >= 0]
+        assert len(real) == len(set(real.tolist())) == min(10, n)
+    assert np.all(np.isinf(np.asarray(res.distances)[ids < 0]))
+
+
+def test_tune_reaches_target_with_fewest_candidates(setup):
+    data, q, truth = setup
+    res = tune(jax.random.key(4), data, q, k=10, target_recall=0.9, n_bits_grid=(4, 6),
+               n_tables_grid=(2, 8, 32), n_per_table=512, truth=truth)
+    assert res.reached and res.recall >= 0.9
+    ok = [r for r in res.table if r[2] >= 0.9]
+    assert res.mean_scanned <= min(r[3] for r in ok) + 1e-9
+    assert len(res.table) == 6
+
+
+def test_recall_at_k_by_hand():
+    assert recall_at_k([[1, 2, 3], [4, -1, -1]], [[3, 2, 9], [4, 5, 6]]) == pytest.approx((2 / 3 + 1 / 3) / 2)
+
+
+def test_bad_input(setup):
+    data, q, _ = setup
+    idx = build_index(jax.random.key(0), data[:50], 4, 2)
+    with pytest.raises(ValueError, match="k: must be <= 50"):
+        query(idx, q, k=51)
+    with pytest.raises(ValueError, match="queries: expected dimension D = 16"):
+        query(idx, q[:, :5])
+    with pytest.raises(ValueError, match="n_bits"):
+        build_index(jax.random.key(0), data, 0, 2)
+    with pytest.raises(ValueError, match="data: must not be empty"):
+        build_index(jax.random.key(0), np.zeros((0, 16)), 4, 2)

@@ -1,0 +1,199 @@
+"""EM, gradient fitting, synchronised PHMM training, recognition, synthesis and persistence."""
+import numpy as np
+import pytest
+
+import phmm_jax as P
+from phmm_jax.synthesis import hermite_spline
+
+CORNERS = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [0.0, 3.0]])
+
+
+def square_walk(rng, n, end_shift=0.0, noise=0.2):
+    """Sequences visiting 4 corners for 2-5 frames each; the last corner moves with `end_shift`."""
+    seqs = []
+    for _ in range(n):
+        durations = rng.integers(2, 6, size=4)
+        points = CORNERS.copy()
+        points[3, 0] += end_shift
+        x = np.concatenate([np.repeat(points[k:k + 1], d, 0) for k, d in enumerate(durations)])
+        seqs.append(x + noise * rng.normal(size=x.shape))
+    return seqs
+
+
+@pytest.mark.parametrize("max_duration", [6, None])
+def test_em_increases_likelihood_and_recovers_the_walk(max_duration):
+    rng = np.random.default_rng(0)
+    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=max_duration, n_iter=30, tol=1e-6)
+    hmm, history = P.fit_hmm(square_walk(rng, 40), config=cfg, return_history=True)
+    assert np.all(np.diff(history) > -1e-4)  # EM never decreases the likelihood (float32 slack)
+    np.testing.assert_allclose(np.asarray(hmm.means), CORNERS, atol=0.15)
+    np.testing.assert_allclose(np.asarray(P.expected_durations(hmm)), 3.5, atol=0.5)
+    if max_duration is not None:
+        # Forbidden transitions stay exactly impossible through EM.
+        assert np.all(np.asarray(hmm.log_exit)[:, 0] == -np.inf)
+        assert np.all(np.asarray(hmm.log_cont)[:, -1] == -np.inf)
+
+
+def test_gradient_fit_reaches_the_em_likelihood():
+    rng = np.random.default_rng(1)
+    seqs = square_walk(rng, 30)
+    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=6, n_iter=100, tol=1e-7)
+    em = P.fit_hmm(seqs, config=cfg)
+    grad = P.fit_hmm_gradient(seqs, config=cfg, n_steps=150)
+    n_frames = sum(len(s) for s in seqs)
+    em_ll = float(np.sum(P.log_likelihood(em, seqs))) / n_frames
+    grad_ll = float(np.sum(P.log_likelihood(grad, seqs))) / n_frames
+    assert grad_ll > em_ll - 0.01, (grad_ll, em_ll)
+
+
+def test_degenerate_data_is_floored_not_nan():
+    flat = [np.zeros((12, 3)) for _ in range(4)]  # zero variance in every dimension
+    hmm = P.fit_hmm(flat, config=P.HMMConfig(n_states=3, min_duration=2, max_duration=5, n_iter=3))
+    assert np.all(np.isfinite(np.asarray(hmm.covariances)))
+    assert np.all(np.isfinite(np.asarray(P.log_likelihood(hmm, flat))))
+
+
+def phase_walk(rng, phi, n):
+    """A 2-D movement whose path depends on φ: out to (3, 3φ) and back, randomly time-warped."""
+    seqs, phases = [], []
+    for _ in range(n):
+        length = int(rng.integers(36, 45))
+        u = np.linspace(0, 1, length)
+        phase = u + 0.08 * np.sin(2 * np.pi * u) * rng.uniform(-1, 1)
+        out = np.sin(np.pi * phase)[:, None] * np.array([3.0, 3.0 * phi])
+        seqs.append(out + 0.05 * rng.normal(size=out.shape))
+        phases.append(phase)
+    return seqs, phases
+
+
+@pytest.fixture(scope="module")
+def walk_phmm():
+    rng = np.random.default_rng(2)
+    data = [phase_walk(rng, phi, 8) for phi in (0.0, 0.5, 1.0)]
+    cfg = P.HMMConfig(n_states=8, min_duration=3, max_duration=6, n_iter=15)
+    return P.fit_phmm([d[0] for d in data], (3,), cfg), data
+
+
+def test_synchronised_local_models_are_aligned(walk_phmm):
+    phmm, data = walk_phmm
+    boundary_phase = []
+    for corner, (seqs, phases) in enumerate(data):
+        states, _ = P.viterbi(phmm.corner((corner,)), seqs)
+        states = np.asarray(states)
+        per_state = [[phases[b][np.argmax(states[b] == k)] for b in range(len(seqs))] for k in range(1, 8)]
+        boundary_phase.append(np.mean(per_state, axis=1))
+    boundary_phase = np.array(boundary_phase)  # (corners, 7 boundaries)
+    # The same state starts at the same phase of the movement in every local model.
+    assert np.max(np.ptp(boundary_phase, axis=0)) < 0.05, boundary_phase
+    # ... and the local means follow φ: the far point of state 4 scales with it.
+    far = np.asarray(phmm.local.means)[:, 3:5, 1].mean(axis=1)
+    assert far[0] < far[1] < far[2]
+
+
+def test_interpolation_is_d_linear_and_differentiable(walk_phmm):
+    phmm, data = walk_phmm
+    x = data[1][0][:2]
+    at_corner = np.asarray(P.phmm_log_likelihood(phmm, x, [0.5]))
+    np.testing.assert_allclose(at_corner, np.asarray(P.log_likelihood(phmm.corner((1,)), x)), rtol=1e-5)
+    mid = P.interpolate(phmm, np.array([0.25]))
+    np.testing.assert_allclose(np.asarray(mid.means),
+                               0.5 * np.asarray(phmm.local.means[0] + phmm.local.means[1]), atol=1e-5)
+    import jax
+    import jax.numpy as jnp
+
+    from phmm_jax.parametric import batch_phmm_log_likelihood
+
+    X, lengths = jnp.asarray(np.stack([x[0][:36]])), jnp.asarray([36])
+    f = lambda phi: batch_phmm_log_likelihood(phmm, X, lengths, phi[None])[0]  # noqa: E731
+    phi = jnp.asarray([0.3])
+    grad = float(jax.grad(f)(phi)[0])
+    h = 1e-2
+    numeric = (float(f(phi + h)) - float(f(phi - h))) / (2 * h)
+    assert np.isfinite(grad) and abs(grad - numeric) <= 0.05 * abs(numeric) + 1e-2
+
+
+def test_recognize_finds_class_and_parameter(walk_phmm):
+    phmm, _ = walk_phmm
+    rng = np.random.default_rng(3)
+    other = P.PHMM(phmm.local.replace(means=phmm.local.means * np.array([1.0, -1.0])), phmm.grid_shape)
+    tests, true_phi = [], np.array([0.2, 0.65, 0.9])
+    for phi in true_phi:
+        tests += phase_walk(rng, phi, 1)[0]
+    mirrored = [s * np.array([1.0, -1.0]) for s in tests]
+    rec = P.recognize([phmm, other], tests + mirrored)
+    np.testing.assert_array_equal(rec.label, [0, 0, 0, 1, 1, 1])
+    np.testing.assert_allclose(rec.phi[:3, 0, 0], true_phi, atol=0.08)
+    with pytest.raises(ValueError, match="phi: expected 1 parameter"):
+        P.phmm_log_likelihood(phmm, tests[0], [0.5, 0.5])
+
+
+def test_fit_phmm_rejects_a_missing_corner():
+    rng = np.random.default_rng(4)
+    groups = [square_walk(rng, 3) for _ in range(3)] + [[]]
+    with pytest.raises(ValueError, match=r"groups\[3\]: the grid corner .* has no sequences"):
+        P.fit_phmm(groups, (2, 2), P.HMMConfig(n_states=4, min_duration=2, max_duration=5))
+    with pytest.raises(ValueError, match="groups: a 3x3 grid needs 9"):
+        P.fit_phmm(groups, (3, 3), P.HMMConfig(n_states=4, min_duration=2, max_duration=5))
+
+
+def test_synthesis_passes_through_the_state_means(walk_phmm):
+    phmm, _ = walk_phmm
+    hmm = phmm.corner((2,))
+    movement = np.asarray(P.synthesize(phmm, [1.0], length=200))
+    assert movement.shape == (200, 2)
+    np.testing.assert_allclose(movement[0], np.asarray(hmm.means[0]), atol=1e-4)
+    np.testing.assert_allclose(movement[-1], np.asarray(hmm.means[-1]), atol=1e-4)
+    batch = np.asarray(P.synthesize(phmm, np.array([[0.0], [1.0]]), length=50))
+    assert batch.shape == (2, 50, 2)
+
+
+def test_hermite_spline_is_c1():
+    import jax.numpy as jnp
+
+    times = jnp.asarray([0.0, 1.0, 2.5, 4.0])
+    knots = jnp.asarray([[0.0], [1.0], [0.0], [2.0]])
+    eps = 1e-3
+    for t in (1.0, 2.5):
+        left, mid, right = np.asarray(hermite_spline(times, knots, jnp.asarray([t - eps, t, t + eps])))[:, 0]
+        assert abs((mid - left) / eps - (right - mid) / eps) < 1e-2  # no kink at a knot
+        assert abs(mid - float(knots[list(np.asarray(times)).index(t), 0])) < 1e-6
+
+
+def test_target_to_phi_rectangular_and_warped():
+    rect = np.stack(np.meshgrid(np.linspace(-0.4, 0.4, 3), np.linspace(0.2, 0.5, 3), indexing="ij"), -1)
+    phi = P.target_to_phi(rect, np.array([[0.0, 0.35], [0.2, 0.2], [-0.48, 0.5]]))
+    np.testing.assert_allclose(phi, [[0.5, 0.5], [0.75, 0.0], [-0.1, 1.0]], atol=1e-5)
+    warped = np.array([[[0.0, 0.0], [0.1, 1.0]], [[1.0, 0.2], [1.3, 1.4]]])
+    truth = np.array([[0.3, 0.6], [0.8, 0.1]])
+    import jax.numpy as jnp
+
+    from phmm_jax.synthesis import multilinear_map
+
+    targets = np.stack([np.asarray(multilinear_map(jnp.asarray(warped), jnp.asarray(p))) for p in truth])
+    np.testing.assert_allclose(P.target_to_phi(warped, targets), truth, atol=1e-4)
+    with pytest.raises(ValueError, match="targets: expected points of dimension 2"):
+        P.target_to_phi(warped, np.zeros((1, 3)))
+
+
+def test_save_load_round_trip(tmp_path, walk_phmm):
+    phmm, _ = walk_phmm
+    hmm = phmm.corner((0,))
+    for model in (hmm, phmm):
+        path = P.save(tmp_path / type(model).__name__, model)
+        loaded = P.load(path)
+        assert type(loaded) is type(model)
+        a = loaded.local if isinstance(loaded, P.PHMM) else loaded
+        b = model.local if isinstance(model, P.PHMM) else model
+        assert a.config == b.config
+        for name in ("means", "covariances", "log_cont", "log_exit"):
+            np.testing.assert_array_equal(np.asarray(getattr(a, name)), np.asarray(getattr(b, name)))
+    assert P.load(tmp_path / "PHMM.npz").grid_shape == (3,)
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes((tmp_path / "HMM.npz").read_bytes()[:200])
+    with pytest.raises(ValueError, match="truncated or corrupt"):
+        P.load(broken)
+    from lfd_common import save_arrays
+
+    other = save_arrays(tmp_path / "other", "crf_jax.ChainCRF", {"w": np.zeros(2)})
+    with pytest.raises(ValueError, match="neither a phmm_jax.HMM nor a phmm_jax.PHMM"):
+        P.load(other)
