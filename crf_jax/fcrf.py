@@ -112,7 +112,6 @@ def loopy_bp(ua: Array, uo: Array, Ta: Array, To: Array, coupling: Array, length
              n_iter: int = 20, damping: float = 0.0) -> BPResult:
     """Loopy BP (sum-product, log space) on the FCRF ladder; ua (B, T, Ka), uo (B, T, Ko)."""
     B, T, Ka = ua.shape
-    Ko = uo.shape[-1]
     valid = (jnp.arange(T)[None, :] < lengths[:, None])[..., None]  # (B, T, 1)
     ua = jnp.where(valid, ua, 0.0)
     uo = jnp.where(valid, uo, 0.0)

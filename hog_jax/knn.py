@@ -248,7 +248,6 @@ def predict(model: KNNModel, queries, k: int = 10, index: LSHIndex | None = None
     model.data) or exact search when None, then eqs. 3-4."""
     from hog_jax.lsh import query as lsh_query
 
-    N = model.data.shape[0]
     if index is not None:
         if index.data.shape != model.data.shape:
             raise ValueError(f"index: built on {index.data.shape} points, the model holds {model.data.shape}")
