@@ -79,14 +79,27 @@ def rgb_to_chroma(rgb) -> jax.Array:
     return jnp.stack([cr, cb], axis=-1) / 255.0
 
 
+def _whiten(chols, diff) -> jax.Array:
+    """L_g^{-1} d for lower-triangular chols (G, P, P) and diff (..., G, P) -> (..., G, P).
+
+    Forward substitution unrolled over the P (= 2) colour channels, in plain elementwise operations:
+    a batched LAPACK triangular solve here deadlocked XLA:CPU's thread pool when the skin and the
+    background mixtures were evaluated concurrently (both custom calls waiting on the same two-thread
+    pool; seen about one run in three on a 2-core machine).
+    """
+    columns = []
+    for i in range(diff.shape[-1]):
+        partial_sum = sum((chols[:, i, j] * columns[j] for j in range(i)), jnp.zeros_like(diff[..., i]))
+        columns.append((diff[..., i] - partial_sum) / chols[:, i, i])
+    return jnp.stack(columns, axis=-1)
+
+
 def gmm_log_prob(gmm: GMM, x) -> jax.Array:
     """log p(x) under the mixture for x (..., P) -> (...)."""
     x = jnp.asarray(x)
     P = x.shape[-1]
     diff = x[..., None, :] - gmm.means  # (..., G, P)
-    sol = jax.scipy.linalg.solve_triangular(
-        gmm.chols, jnp.moveaxis(diff.reshape(-1, *diff.shape[-2:]), 0, -1), lower=True)  # (G, P, n)
-    maha = jnp.sum(sol * sol, axis=-2).T.reshape(diff.shape[:-1])  # (..., G)
+    maha = jnp.sum(_whiten(gmm.chols, diff) ** 2, axis=-1)  # (..., G)
     logdet = jnp.sum(jnp.log(jnp.diagonal(gmm.chols, axis1=-2, axis2=-1)), axis=-1)
     comp = gmm.log_weights - 0.5 * maha - logdet - 0.5 * P * jnp.log(2 * jnp.pi)
     return jax.nn.logsumexp(comp, axis=-1)
@@ -103,8 +116,7 @@ def _em(key, x, n_components: int, n_iter: int, reg):
 
     def step(_, gmm):
         diff = x[:, None, :] - gmm.means
-        sol = jax.scipy.linalg.solve_triangular(gmm.chols, jnp.moveaxis(diff, 0, -1), lower=True)
-        maha = jnp.sum(sol * sol, axis=-2).T  # (N, G)
+        maha = jnp.sum(_whiten(gmm.chols, diff) ** 2, axis=-1)  # (N, G)
         logdet = jnp.sum(jnp.log(jnp.diagonal(gmm.chols, axis1=-2, axis2=-1)), axis=-1)
         logp = gmm.log_weights - 0.5 * maha - logdet
         resp = jax.nn.softmax(logp, axis=1)  # E step

@@ -25,6 +25,10 @@ Parametric HMMs
     synthesize(phmm, phi, length=100)          -> (length, D) mean movement
     target_to_phi(corner_targets, targets)     -> (M, d) interpolation parameters of target points
 
+Retargeting to a robot arm (Humanoids 2008 §IV-B, eqs. 10-24)
+    retarget(markers (..., T, 7, 3), upper_arm, forearm) -> ArmAngles (shoulder Cardan angles, elbow, wrist twist)
+    solve_arm(q, r, o, upper_arm, forearm)  the same for elbow/hand/finger vectors; MARKER_ORDER: marker layout
+
 Persistence
     save(path, model), load(path)
 """
@@ -34,11 +38,12 @@ from phmm_jax.gradfit import fit_hmm_gradient
 from phmm_jax.io import load, save
 from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
 from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
+from phmm_jax.retarget import MARKER_ORDER, ArmAngles, retarget, solve_arm
 from phmm_jax.synthesis import synthesize, target_to_phi
 
 __all__ = [
-    "HMM", "PHMM", "DenseHMM", "HMMConfig", "Posteriors", "Recognition",
+    "ArmAngles", "HMM", "MARKER_ORDER", "PHMM", "DenseHMM", "HMMConfig", "Posteriors", "Recognition",
     "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
     "interpolate", "load", "log_likelihood", "messages", "phmm_log_likelihood", "posteriors",
-    "recognize", "save", "synthesize", "target_to_phi", "viterbi",
+    "recognize", "retarget", "save", "solve_arm", "synthesize", "target_to_phi", "viterbi",
 ]

@@ -10,7 +10,7 @@ from sim.scenes import table_height_m
 def test_demo_writes_frame_and_metrics(tmp_path):
     out = tmp_path / "demo"
     metrics = demo.main(["--out", str(out), "--n-worlds", "2", "--n-objects", "2", "--sim-seconds", "0.4",
-                         "--image-width", "64", "--image-height", "48"])
+                         "--image-width", "64", "--image-height", "48", "--stages", "sim"])
     import matplotlib.pyplot as plt
 
     frame = plt.imread(out / "frame.png")
@@ -36,3 +36,8 @@ def test_render_frame_validates_input():
     with pytest.raises(ValueError, match="width"):
         sim.render_frame(model, model.qpos0, width=10_000)
     assert table_height_m() > 0
+
+
+def test_demo_rejects_unknown_stage(tmp_path):
+    with pytest.raises((ValueError, SystemExit)):
+        demo.main(["--out", str(tmp_path / "d"), "--stages", "sim,nope"])

@@ -1,0 +1,155 @@
+"""Human arm movement -> joint angles of a HOAP-3-like robot arm (Humanoids 2008 §IV-B, eqs. 10-24).
+
+Shapes: T frames (any leading batch axes allowed before T), markers in the papers' order
+`MARKER_ORDER` (sternum, shoulder, elbow, wrist, index knuckle, index tip, thumb tip), metres.
+
+The human elbow q and hand r (mean of index knuckle, index tip and thumb tip) are taken relative to
+the shoulder p and scaled to the robot's arm length a + b. The robot's hand is placed on the scaled
+hand (when within reach; otherwise as far as it gets along the shoulder-hand line) with its elbow q'
+in the plane of p, q, r:
+
+    gamma = arccos((a² + b² - c²) / 2ab)    (10)   elbow angle, c = |r|
+    beta  = arccos((a² + c² - b²) / 2ac)    (11)   angle between the upper arm and p->r
+    u1 = cos(beta) w1 + sin(beta) w2        (12)   upper-arm direction; w1 = r/|r| (13);
+    w2 = unit(q - <q, w1> w1)               (14, 15)
+    u2 = unit(-w2 - <-w2, u1> u1), u3 = u1 x u2      (20-22, see below for beta > 90 deg)
+    R = [u1|u2|u3]^T [v1|v2|v3] = Rz(psi) Ry(theta) Rx(phi)    (19; Cardan angles 16-18)
+
+Eq. 21 takes -w2 (projected off u1) as the direction the forearm bends to. That holds while beta
+< 90 deg; when the hand comes close to the shoulder of an arm whose forearm is longer than its upper
+arm (b² > a² + c², as for HOAP-3 near the rest pose), -w2 points away from the hand and the elbow
+would bend the wrong way. We use the direction from the elbow to the hand, projected off u1, which
+equals eq. 21 whenever beta < 90 deg and stays right beyond.
+
+{v_i} is the robot's fixed shoulder frame (default: v1 down, v2 forward, v3 to the right, i.e. the
+arm hanging), so the upper-arm frame is U = V Rx(-phi) Ry(-theta) Rz(-psi): a robot whose shoulder
+joints rotate about -x, -y, -z (in that nested order) by phi, theta, psi, whose upper arm lies along
+its local x, and whose elbow flexes by delta = pi - gamma about the local z (u3) reproduces it.
+
+Wrist twist (eqs. 23-24): the finger->thumb direction o projected on the plane perpendicular to the
+forearm b, o' = o - <o, b> b / |b|², and alpha = angle(b_perp, o') signed by <o', b x b_perp>, with
+b_perp = u3 (the elbow axis, the twist's zero). Eq. 24 as printed subtracts the b_perp component
+instead of the b component; that would make o' perpendicular to b_perp and alpha always ±90°, so we
+project out b, as the text ("the projection ... onto the rotation plane of the wrist") says. The
+arccos-times-sign of eq. 23 is evaluated as the equivalent, better conditioned atan2.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from lfd_common import as_array, check_real
+
+MARKER_ORDER = ("sternum", "shoulder", "elbow", "wrist", "index_knuckle", "index_tip", "thumb_tip")
+_SHOULDER, _ELBOW, _KNUCKLE, _TIP, _THUMB = 1, 2, 4, 5, 6
+# Columns v1 (down), v2 (forward), v3 (right) of the robot's fixed shoulder frame, world x right,
+# y forward, z up.
+DEFAULT_BASE_FRAME = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+
+
+class ArmAngles(NamedTuple):
+    """Robot joint angles (radians) and the points they were solved for, in robot scale (metres,
+    relative to the robot's shoulder, world axes).
+
+    shoulder (..., T, 3): Cardan angles (phi, theta, psi); elbow (..., T): flexion delta = pi - gamma;
+    wrist (..., T): twist alpha. hand (..., T, 3) and elbow_point (..., T, 3): the scaled human hand and
+    elbow. robot_elbow (..., T, 3): the robot's elbow q' = a u1. scale (...,): robot / human arm length.
+    """
+
+    shoulder: jax.Array
+    elbow: jax.Array
+    wrist: jax.Array
+    hand: jax.Array
+    elbow_point: jax.Array
+    robot_elbow: jax.Array
+    scale: jax.Array
+
+
+def _unit(v):
+    return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _dot(a, b):
+    return jnp.sum(a * b, axis=-1, keepdims=True)
+
+
+def solve_arm(q, r, o, upper_arm, forearm, base_frame=DEFAULT_BASE_FRAME):
+    """Joint angles for elbow q, hand r and finger->thumb direction o (..., 3), all relative to the
+    shoulder and already in robot scale. Returns (cardan (..., 3), delta (...,), alpha (...,),
+    robot_elbow (..., 3)). Pure jnp, differentiable away from the singular poses."""
+    a, b = upper_arm, forearm
+    c = jnp.clip(jnp.linalg.norm(r, axis=-1), abs(a - b) * (1 + 1e-6) + 1e-9, (a + b) * (1 - 1e-6))
+    gamma = jnp.arccos(jnp.clip((a**2 + b**2 - c**2) / (2 * a * b), -1.0, 1.0))  # (10)
+    beta = jnp.arccos(jnp.clip((a**2 + c**2 - b**2) / (2 * a * c), -1.0, 1.0))  # (11)
+    w1 = _unit(r)  # (13)
+    w2 = _unit(q - _dot(q, w1) * w1)  # (14, 15)
+    u1 = jnp.cos(beta)[..., None] * w1 + jnp.sin(beta)[..., None] * w2  # (12)
+    forearm_vec = c[..., None] * w1 - a * u1  # elbow -> hand
+    u2 = _unit(forearm_vec - _dot(forearm_vec, u1) * u1)  # (20, 21): -w2 when beta < 90 deg, see above
+    u3 = jnp.cross(u1, u2)  # (22)
+    U = jnp.stack([u1, u2, u3], axis=-1)  # columns u_i
+    R = jnp.swapaxes(U, -1, -2) @ jnp.asarray(base_frame, U.dtype)  # (19)
+    phi = jnp.arctan2(R[..., 2, 1], R[..., 2, 2])  # (16)
+    theta = -jnp.arcsin(jnp.clip(R[..., 2, 0], -1.0, 1.0))  # (17)
+    psi = jnp.arctan2(R[..., 1, 0], R[..., 0, 0])  # (18)
+    delta = jnp.pi - gamma
+    forearm_dir = jnp.cos(delta)[..., None] * u1 + jnp.sin(delta)[..., None] * u2
+    o_proj = o - _dot(o, forearm_dir) * forearm_dir  # (24), projecting out the forearm direction
+    alpha = jnp.arctan2(_dot(o_proj, jnp.cross(forearm_dir, u3))[..., 0], _dot(o_proj, u3)[..., 0])  # (23)
+    return jnp.stack([phi, theta, psi], axis=-1), delta, alpha, a * u1
+
+
+@jax.jit
+def _retarget(markers, shoulder_ref, upper_arm, forearm, scale, base_frame):
+    p = markers[..., _SHOULDER, :]
+    q = markers[..., _ELBOW, :]
+    r = (markers[..., _KNUCKLE, :] + markers[..., _TIP, :] + markers[..., _THUMB, :]) / 3.0
+    o = markers[..., _THUMB, :] - markers[..., _TIP, :]
+    human = jnp.median(jnp.linalg.norm(q - p, axis=-1) + jnp.linalg.norm(r - q, axis=-1), axis=-1)
+    scale = jnp.where(scale > 0, scale, (upper_arm + forearm) / human)
+    shoulder_ref = shoulder_ref[..., None, :]
+    origin = jnp.where(jnp.isnan(shoulder_ref), p, shoulder_ref)
+    q_s = scale[..., None, None] * (q - origin)
+    r_s = scale[..., None, None] * (r - origin)
+    cardan, delta, alpha, robot_elbow = solve_arm(q_s, r_s, o, upper_arm, forearm, base_frame)
+    return ArmAngles(cardan, delta, alpha, r_s, q_s, robot_elbow, scale)
+
+
+def retarget(markers, upper_arm: float = 0.105, forearm: float = 0.145, shoulder=None, scale=None,
+             base_frame=DEFAULT_BASE_FRAME) -> ArmAngles:
+    """Robot joint angles for a marker trajectory (..., T, 7, 3) or (..., T, 21) in `MARKER_ORDER`.
+
+    upper_arm, forearm: the robot's a (shoulder-elbow) and b (elbow-grasp point), metres.
+    shoulder: the reference shoulder position (3,) or (..., 3) — the papers use the mean shoulder
+        position over the training movements; None uses each frame's shoulder marker.
+    scale: robot / human arm length (scalar or (...,)); None uses (a + b) / the median over frames of
+        the human |shoulder-elbow| + |elbow-hand|.
+    base_frame: (3, 3) columns v1, v2, v3 of the robot's fixed shoulder frame in world coordinates.
+    """
+    markers = as_array(markers, "markers", ndim=range(2, 8))
+    if markers.shape[-1] == 3 * len(MARKER_ORDER) and markers.shape[-2:] != (len(MARKER_ORDER), 3):
+        markers = markers.reshape(markers.shape[:-1] + (len(MARKER_ORDER), 3))
+    if markers.ndim < 3 or markers.shape[-2:] != (len(MARKER_ORDER), 3):
+        raise ValueError(f"markers: expected (..., T, {len(MARKER_ORDER)}, 3) or (..., T, "
+                         f"{3 * len(MARKER_ORDER)}), got {markers.shape}")
+    batch = markers.shape[:-3]
+    upper_arm = check_real(upper_arm, "upper_arm", min_value=1e-6)
+    forearm = check_real(forearm, "forearm", min_value=1e-6)
+    base_frame = as_array(base_frame, "base_frame", shape=(3, 3))
+    if not np.allclose(base_frame.T @ base_frame, np.eye(3), atol=1e-6) or np.linalg.det(base_frame) < 0:
+        raise ValueError("base_frame: expected a rotation matrix (orthonormal columns, det +1)")
+    if shoulder is None:
+        shoulder = np.full(batch + (3,), np.nan)
+    else:
+        shoulder = np.broadcast_to(as_array(shoulder, "shoulder", ndim=range(1, 8)), batch + (3,))
+    if scale is None:
+        scale = np.zeros(batch)
+    else:
+        scale = np.broadcast_to(as_array(scale, "scale", ndim=range(0, 7), min_value=1e-9), batch)
+    dtype = jnp.result_type(float)
+    return _retarget(jnp.asarray(markers, dtype), jnp.asarray(shoulder, dtype), upper_arm, forearm,
+                     jnp.asarray(scale, dtype), jnp.asarray(base_frame, dtype))
+

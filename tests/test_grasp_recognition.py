@@ -1,0 +1,103 @@
+import json
+
+import numpy as np
+import pytest
+
+import hog_jax
+import sim  # noqa: F401  (sets MUJOCO_GL before mujoco creates a GL context)
+from experiments import grasp_recognition as gr
+from experiments.data.grasp_tests import (STAGES, clutter_background, random_set, sequence_set,
+                                          skin_training_pixels, stage_subsets)
+from sim.grasp_objects import GRASP_CLASSES
+
+
+@pytest.fixture(scope="module")
+def x_set():
+    return sequence_set(seed=3, frame_size=64)
+
+
+def test_sequence_set_follows_the_paper_protocol(x_set):
+    X = x_set
+    assert X.frames.shape == (36, 64, 64, 3) and X.frames.dtype == np.uint8
+    assert np.bincount(X.labels, minlength=6).tolist() == [6] * 6
+    assert np.bincount(X.stage).tolist() == [12, 12, 12]
+    subsets = stage_subsets(X.stage)
+    assert [int(subsets[k].sum()) for k in ("X", "Xp", "Xpp")] == [36, 24, 12]
+    az = np.degrees(X.euler[:, 0]) % 360.0
+    el = -np.degrees(X.euler[:, 1])
+    # off the database grid: azimuths never on a multiple of 6, elevations never on a band centre 3 + 6 k
+    assert np.all(np.abs((az + 3.0) % 6.0 - 3.0) > 0.5)
+    assert np.all(np.abs(el % 6.0 - 3.0) > 0.5)
+    assert np.all((el > 0) & (el < 90))
+    # the hand is in every frame, and the background is clutter (not one flat colour)
+    assert np.all(X.hand_masks.sum((1, 2)) > 20)
+    assert np.all(X.frames.reshape(36, -1, 3).std(1).max(1) > 10)
+    np.testing.assert_allclose(np.linalg.norm(X.quat, axis=1), 1.0, atol=1e-5)
+
+
+def test_random_set_and_clutter_are_deterministic():
+    a = random_set(4, seed=1, frame_size=48)
+    b = random_set(4, seed=1, frame_size=48)
+    np.testing.assert_array_equal(a.frames, b.frames)
+    assert set(a.stage.tolist()) <= {0, 1, 2} and len(STAGES) == 3
+    c1 = clutter_background(np.random.default_rng(0), 32)
+    c2 = clutter_background(np.random.default_rng(0), 32)
+    np.testing.assert_array_equal(c1, c2)
+    with pytest.raises(ValueError, match="n"):
+        random_set(0)
+
+
+def test_skin_pixels_separate_skin_from_background():
+    skin, bg = skin_training_pixels(seed=0, n_images=3, frame_size=48, n_pixels=500)
+    assert skin.shape == bg.shape == (500, 3)
+    # skin is reddish: R > B on (nearly) every skin pixel, not on the background in general
+    assert np.mean(skin[:, 0] > skin[:, 2]) > 0.95
+    assert np.mean(bg[:, 0] > bg[:, 2] + 10) < 0.8
+
+
+def test_orientation_errors_wrap_and_match_a_matrix_reference():
+    rng = np.random.default_rng(0)
+    e1 = np.column_stack([rng.uniform(-np.pi, np.pi, 50), rng.uniform(-1.4, 1.4, 50), rng.uniform(-np.pi, np.pi, 50)])
+    e2 = e1 + rng.normal(0, 0.3, e1.shape)
+    q = lambda e: np.asarray(hog_jax.euler_to_quat(np.asarray(e, np.float32)), float)
+    d, geo = gr.orientation_errors_deg(e1, e2, q(e1), q(e2))
+
+    def mat(e):
+        cz, sz, cy, sy, cx, sx = np.cos(e[0]), np.sin(e[0]), np.cos(e[1]), np.sin(e[1]), np.cos(e[2]), np.sin(e[2])
+        Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        return Rz @ Ry @ Rx
+
+    ref = [np.degrees(np.arccos(np.clip((np.trace(mat(a).T @ mat(b)) - 1) / 2, -1, 1))) for a, b in zip(e1, e2)]
+    np.testing.assert_allclose(geo, ref, atol=1e-3)
+    d, _ = gr.orientation_errors_deg(np.radians([[179.0, 0, -179.0]]), np.radians([[-179.0, 0, 179.0]]),
+                                     np.array([[1.0, 0, 0, 0]]), np.array([[1.0, 0, 0, 0]]))
+    np.testing.assert_allclose(d, [[2.0, 0.0, 2.0]], atol=1e-9)
+
+
+def test_confusion_and_wilson_interval():
+    c = gr.confusion([0, 0, 1, 2], [0, -1, 2, 2], 3)
+    assert c.tolist() == [[1, 0, 0, 1], [0, 0, 1, 0], [0, 0, 1, 0]]
+    lo, hi = gr.wilson_interval(50, 100)
+    assert lo == pytest.approx(0.4038, abs=1e-3) and hi == pytest.approx(0.5962, abs=1e-3)
+    with pytest.raises(ValueError, match="db_grids"):
+        gr.Config(db_grids=("60-15",))
+
+
+def test_experiment_smoke(tmp_path):
+    argv = ["--out", str(tmp_path), "--n-azimuth", "8", "--n-elevation", "3", "--render-size", "64",
+            "--crop-size", "32", "--n-large", "12", "--n-held-out", "12", "--frame-size", "96", "--k", "3",
+            "--k-values", "1,3", "--db-grids", "6x2", "--bins-sweep", "4", "--levels-sweep", "3",
+            "--n-skin-images", "3", "--timing-repeats", "1"]
+    m = gr.main(argv)
+    for key in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large", "lsh_recall_at_k", "query_ms",
+                "orientation_geodesic_error_deg_X"):
+        assert key in m
+    assert all(0.0 <= m[k] <= 1.0 for k in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large"))
+    assert m["n_database_views"] == 6 * 24 and m["n_test_X"] == 36
+    saved = json.loads((tmp_path / "metrics.json").read_text())
+    assert len(saved["orientation_error_deg"]) == 3
+    for png in ("confusion.png", "orientation.png", "neighbours.png", "sweeps.png", "contact_sheet.png"):
+        assert (tmp_path / png).stat().st_size > 1000
+    assert "61 %" in (tmp_path / "report.md").read_text()
