@@ -7,6 +7,8 @@ worlds (vmap over worlds, scan over steps), render one world offscreen and save 
 plot object heights over time (`heights.png`).
 Stage "grasp": grasp recognition from single images (quick preset of experiments.grasp_recognition) and
 the robot grasp each recognised human grasp maps to.
+Stage "mapping": one human grasp class mapped to the Barrett and Karlsruhe preshapes and executed in
+MuJoCo (`grasp_demo.png`; experiments.grasp_mapping).
 Stage "phmm": one simulated pointing movement recognised by PHMMs (action and target) and reproduced by
 the robot arm (`phmm_demo.png`; experiments.phmm_tabletop).
 Stage "oac": one simulated object-action complex classified by a CHCRF (`oac_demo.png`;
@@ -139,6 +141,7 @@ def _lazy_stage(module: str, name: str = "demo_stage"):
 STAGES = {
     "sim": sim_stage,
     "grasp": _lazy_stage("experiments.grasp_recognition"),
+    "mapping": _lazy_stage("experiments.grasp_mapping", "grasp_demo_stage"),
     "phmm": _lazy_stage("experiments.phmm_tabletop"),
     "oac": _lazy_stage("experiments.oac_recognition"),
 }

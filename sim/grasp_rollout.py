@@ -1,0 +1,299 @@
+"""Run a batch of grasp trials on one of three physics backends, behind one function.
+
+`rollout_grasps(hand, params, object_start, backend=...)` steps B trials of one hand for
+`grasp_strategy.n_control_steps()` control steps, with `grasp_strategy.controller_step` (jitted JAX)
+between control steps, and returns `GraspOutcomes`. Backends:
+
+* `native`: MuJoCo 4's `mujoco.batch.Batch` (the C engine on a thread pool; bit-identical to a serial
+  `mj_step` loop). The controller reads `sensordata` (B, S) and writes the bound `ctrl` (B, U) between
+  `Batch.rollout(10)` calls (10 substeps, recording `sensordata` for the touch peaks); finished trials
+  are no longer stepped. Per-trial parked objects get
+  gravity compensation through `Batch.expand("body_gravcomp")`.
+* `mjx-jax`: `mjx.put_model(m, impl="jax")`, `jax.vmap` over `mjx.Data` (and over the per-world
+  `body_gravcomp`), `lax.scan` over control steps with the controller inside the scan, `fori_loop`
+  over the 10 physics substeps. Runs on any JAX device and is differentiable.
+* `mjx-warp`: the same scan with `impl="warp"` (NVIDIA GPU, `warp-lang` and `mujoco-warp` installed).
+  `naconmax` (contacts across all worlds) is sized from the batch; an overflow raises an error rather
+  than silently dropping contacts.
+* `auto`: `mjx-warp` where a CUDA GPU and Warp are present, else `native`.
+
+Both MuJoCo and MJX compute `sensordata` in the forward pass of a step, from the state before that
+step's integration, so every backend hands the controller the same quantities: the last substep's
+readings, with each touch sensor at its peak over the control period's 10 substeps (`peak_touch`).
+"""
+from __future__ import annotations
+
+import functools
+import importlib.util
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from mujoco import mjx
+
+from lfd_common import as_array, check_choice, check_int
+from sim.grasp_objects import GRASP_CLASSES
+from sim.grasp_strategy import (CONTROL_DT_S, DONE, ControllerState, TrialParams, controller_step, initial_state,
+                                n_control_steps)
+from sim.robot_hands import (SceneLayout, TIMESTEP_S, grasp_model, hand_joint_qpos, hand_spec, parked_position)
+
+BACKENDS: tuple[str, ...] = ("auto", "native", "mjx-jax", "mjx-warp")
+SUBSTEPS = int(round(CONTROL_DT_S / TIMESTEP_S))
+LIFT_SUCCESS_M = 0.08          # object raised at least 8 of the 10 cm at the end of the hold
+CONTACTS_PER_WORLD = 96        # mjx-warp naconmax per world
+
+
+class GraspOutcomes(NamedTuple):
+    """Per-trial results (numpy), B rows, L links (palm first).
+
+    lifted (B,) bool: object at least `LIFT_SUCCESS_M` above its start at the end of the hold (or of
+    the horizon); lift_m (B,); object_end (B, 3) world; palm_first (B,) bool and first_link (B,) int
+    (-1: no contact) of the first touch; n_corrections (B,); contacts (B, L, 7): found flag, position
+    (3) and normal (3, out of the object) per link in the object frame at the end of closing;
+    slip_mm (B,): object displacement in the palm frame during the 1 s hold (NaN if the hold was not
+    reached); phase (B,) final controller phase; qpos (B, nq) the final state (for rendering).
+    """
+
+    lifted: np.ndarray
+    lift_m: np.ndarray
+    object_end: np.ndarray
+    palm_first: np.ndarray
+    first_link: np.ndarray
+    n_corrections: np.ndarray
+    contacts: np.ndarray
+    slip_mm: np.ndarray
+    phase: np.ndarray
+    qpos: np.ndarray
+
+
+def warp_status() -> str:
+    """'' if mjx-warp can run here, else why not."""
+    missing = [m for m in ("warp", "mujoco_warp") if importlib.util.find_spec(m) is None]
+    if missing:
+        return f"python packages {', '.join(missing)} not installed (extra `gpu`)"
+    if not any(d.platform == "gpu" for d in jax.devices()):
+        return "no CUDA GPU visible to JAX"
+    return ""
+
+
+def resolve_backend(backend: str) -> str:
+    """`backend` with "auto" resolved; ValueError if unknown or not available on this machine."""
+    backend = check_choice(backend, "backend", BACKENDS)
+    if backend == "auto":
+        return "mjx-warp" if not warp_status() else "native"
+    if backend == "mjx-warp" and warp_status():
+        raise ValueError(f"backend: 'mjx-warp' is not available on this machine: {warp_status()}")
+    return backend
+
+
+def initial_qpos(model: mujoco.MjModel, hand: str, layout: SceneLayout, params: TrialParams,
+                 object_start: np.ndarray) -> np.ndarray:
+    """(B, nq) starting positions: wrist at `params.start` with `params.wrist` angles, fingers in the open
+    preshape, the active object at `object_start`, the others parked."""
+    b = params.goal.shape[0]
+    shapes, inverse = np.unique(np.asarray(params.open_), axis=0, return_inverse=True)
+    qpos = np.stack([hand_joint_qpos(model, hand, s) for s in shapes])[inverse.reshape(-1)]
+    qpos[:, layout.wrist_qpos] = np.concatenate([params.start, params.wrist], -1)
+    for k in range(len(GRASP_CLASSES)):   # over the six objects, not over trials
+        adr = layout.object_qpos[k]
+        active = np.asarray(params.obj) == k
+        qpos[:, adr:adr + 3] = np.where(active[:, None], object_start, parked_position(k))
+        qpos[:, adr + 3:adr + 7] = [1.0, 0.0, 0.0, 0.0]
+    assert qpos.shape == (b, model.nq)
+    return qpos
+
+
+def object_gravcomp(model: mujoco.MjModel, layout: SceneLayout, obj: np.ndarray) -> np.ndarray:
+    """(B, nbody) body_gravcomp: 1 for the hand and for parked objects, 0 for each trial's active object."""
+    grav = np.tile(model.body_gravcomp, (len(obj), 1))
+    grav[:, layout.object_body] = 1.0
+    grav[np.arange(len(obj)), layout.object_body[np.asarray(obj)]] = 0.0
+    return grav
+
+
+@functools.lru_cache(maxsize=None)
+def _scene(hand: str):
+    model, layout = grasp_model(hand)
+    return model, layout
+
+
+@functools.lru_cache(maxsize=None)
+def _jitted_controller(hand: str):
+    _, layout = _scene(hand)
+    return jax.jit(functools.partial(controller_step, layout=layout))
+
+
+def _check_inputs(hand: str, params: TrialParams, object_start) -> tuple[TrialParams, np.ndarray]:
+    spec = hand_spec(hand)
+    b = np.shape(params.goal)[0]
+    if b < 1:
+        raise ValueError("params: empty batch")
+    fields = {}
+    for name, value in params._asdict().items():
+        arr = np.asarray(value)
+        if arr.shape[:1] != (b,):
+            raise ValueError(f"params.{name}: expected {b} rows, got shape {arr.shape}")
+        if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+            raise ValueError(f"params.{name}: contains NaN or infinite values")
+        fields[name] = arr
+    if fields["open_"].shape[1] != len(spec.dofs):
+        raise ValueError(f"params.open_: expected {len(spec.dofs)} hand DoF for {hand}, got {fields['open_'].shape[1]}")
+    object_start = as_array(object_start, "object_start", shape=(b, 3))
+    return TrialParams(**fields), object_start
+
+
+def _outcomes(state: ControllerState, qpos: np.ndarray, layout: SceneLayout, object_start: np.ndarray,
+              obj: np.ndarray) -> GraspOutcomes:
+    state = jax.tree.map(np.asarray, state)
+    adr = layout.object_qpos[obj]
+    object_now = np.take_along_axis(qpos, adr[:, None] + np.arange(3), axis=1)
+    done = state.phase == DONE
+    end = np.where(done[:, None], state.end_obj, object_now)
+    lift = end[:, 2] - object_start[:, 2]
+    return GraspOutcomes(
+        lifted=lift >= LIFT_SUCCESS_M, lift_m=lift, object_end=end, palm_first=state.palm_first,
+        first_link=state.first_link, n_corrections=state.n_corr, contacts=state.grasp_contacts,
+        slip_mm=np.where(done, 1e3 * state.slip_m, np.nan), phase=state.phase, qpos=qpos)
+
+
+def rollout_grasps(hand: str, params: TrialParams, object_start, backend: str = "auto",
+                   nthread: int = 0) -> GraspOutcomes:
+    """Run B grasp trials of `hand` (params from `grasp_strategy.plan_trials`) on `backend`.
+
+    object_start (B, 3): where each trial's object really stands. nthread: `native` threads (0: all).
+    """
+    hand = hand_spec(hand).name
+    backend = resolve_backend(backend)
+    nthread = check_int(nthread, "nthread", min_value=0, max_value=1024)
+    params, object_start = _check_inputs(hand, params, object_start)
+    if backend == "native":
+        return _rollout_native(hand, params, object_start, nthread)
+    return _rollout_mjx(hand, params, object_start, impl="jax" if backend == "mjx-jax" else "warp")
+
+
+def peak_touch(last: np.ndarray, substeps, layout: SceneLayout):
+    """Sensor readings for the controller: the last substep's (B, S), with the touch sensors and contact
+    `found` counts (`layout.peak_sensors`, P of them) at their peak over the control period: substeps
+    is (B, SUBSTEPS, S) or the peaks (B, P). A light object pushed by the hand touches it intermittently;
+    one sample per control period misses most touches."""
+    idx = layout.peak_sensors
+    peak = substeps if substeps.ndim == 2 else substeps[:, :, idx].max(1)
+    if isinstance(last, np.ndarray):
+        out = last.copy()
+        out[:, idx] = peak
+        return out
+    return last.at[:, idx].set(peak)
+
+
+def _rollout_native(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int) -> GraspOutcomes:
+    from mujoco.batch import Batch
+
+    model, layout = _scene(hand)
+    b = params.goal.shape[0]
+    batch = Batch(model, nsim=b, nthread=nthread)
+    batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+    batch.bind("qpos")[:] = initial_qpos(model, hand, layout, params, object_start)
+    batch.expand("body_gravcomp")[:] = object_gravcomp(model, layout, params.obj)
+    control = _jitted_controller(hand)
+    state = initial_state(params, layout.n_links)
+    _, ctrl = control(state, jnp.zeros((b, model.nsensordata)), params)
+    batch.bind("ctrl")[:] = np.asarray(ctrl)
+    batch.forward()
+    sensordata, ctrl_view = np.array(batch.bind("sensordata")), batch.bind("ctrl")
+    for _ in range(n_control_steps()):
+        state, ctrl = control(state, jnp.asarray(sensordata, jnp.float32), params)
+        ctrl_view[:] = np.asarray(ctrl)
+        active = np.asarray(state.phase) != DONE
+        if not active.any():
+            break
+        record = batch.rollout(SUBSTEPS, record=("sensordata",), ids=active)["sensordata"]  # (n, SUBSTEPS, S)
+        sensordata[active] = peak_touch(record[:, -1], record, layout)
+    return _outcomes(state, np.array(batch.bind("qpos")), layout, object_start, params.obj)
+
+
+CHUNK = 20  # control steps per compiled scan (see `_mjx_fns`)
+
+
+@functools.lru_cache(maxsize=None)
+def _mjx_fns(hand: str, impl: str):
+    """Jitted (init, chunk) for the MJX backends.
+
+    init(mjx model, gravcomp (B, nbody), qpos (B, nq), params, template) -> (data, sensors, state);
+    chunk(mjx model, gravcomp, data, sensors, state, params) -> the same after `CHUNK` control steps
+    (sensors (B, S): the controller's input, touch at its peak over the substeps, `peak_touch`).
+    The horizon runs as n_control_steps() / CHUNK calls of one compiled chunk: XLA:CPU (jaxlib 0.10)
+    hangs executing this scan at the full 200-step length (all threads idle, the result never ready),
+    while 20-step scans run; chunking also keeps the compiled program small.
+    """
+    model, layout = _scene(hand)
+    control = functools.partial(controller_step, layout=layout)
+
+    def batched(mjx_model, gravcomp):
+        axes = jax.tree.map(lambda _: None, mjx_model).tree_replace({"body_gravcomp": 0})
+        return mjx_model.tree_replace({"body_gravcomp": gravcomp}), axes
+
+    def init(mjx_model, gravcomp, qpos, params, template):
+        models, axes = batched(mjx_model, gravcomp)
+        state = initial_state(params, layout.n_links)
+        _, ctrl = control(state, jnp.zeros((qpos.shape[0], model.nsensordata)), params)
+        data = jax.vmap(lambda q, u: template.replace(qpos=q, ctrl=u))(qpos, ctrl)
+        data = jax.vmap(mjx.forward, in_axes=(axes, 0))(models, data)
+        return data, data.sensordata, state
+
+    def chunk(mjx_model, gravcomp, data, sensors, state, params):
+        models, axes = batched(mjx_model, gravcomp)
+        step = jax.vmap(mjx.step, in_axes=(axes, 0))
+
+        def substep(_, carry):
+            data, peak = carry
+            data = step(models, data)
+            return data, jnp.maximum(peak, data.sensordata[:, layout.peak_sensors])
+
+        def control_step(carry, _):
+            data, sensors, state = carry
+            state, ctrl = control(state, sensors, params)
+            data = data.replace(ctrl=ctrl)
+            peak = jnp.zeros((data.sensordata.shape[0], len(layout.peak_sensors)), data.sensordata.dtype)
+            data, peak = jax.lax.fori_loop(0, SUBSTEPS, substep, (data, peak))
+            return (data, peak_touch(data.sensordata, peak, layout), state), None
+
+        (data, sensors, state), _ = jax.lax.scan(control_step, (data, sensors, state), None, length=CHUNK)
+        return data, sensors, state
+
+    return jax.jit(init), jax.jit(chunk)
+
+
+def _contact_count(data) -> jax.Array:
+    """Contacts in use across all worlds (Warp's `nacon`), or -1 where the implementation has no count."""
+    nacon = getattr(getattr(data, "_impl", None), "nacon", None)
+    return jnp.asarray(-1 if nacon is None else jnp.max(nacon))
+
+
+def mjx_template(model: mujoco.MjModel, impl: str, n_worlds: int):
+    """The `mjx.Data` template of one world (`impl` "jax" or "warp"; Warp sizes contacts for the batch)."""
+    if impl == "warp":
+        return mjx.make_data(model, impl="warp", naconmax=CONTACTS_PER_WORLD * n_worlds,
+                             njmax=4 * CONTACTS_PER_WORLD)
+    return mjx.make_data(model, impl="jax")
+
+
+def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl: str) -> GraspOutcomes:
+    model, layout = _scene(hand)
+    b = params.goal.shape[0]
+    mjx_model = mjx.put_model(model, impl=impl)
+    qpos = initial_qpos(model, hand, layout, params, object_start)
+    grav = object_gravcomp(model, layout, params.obj)
+    jparams = TrialParams(*[jnp.asarray(x) for x in params])
+    init, chunk = _mjx_fns(hand, impl)
+    grav = jnp.asarray(grav, jnp.float32)
+    data, sensors, state = init(mjx_model, grav, jnp.asarray(qpos, jnp.float32), jparams,
+                                mjx_template(model, impl, b))
+    for _ in range(n_control_steps() // CHUNK):  # chunks of one compiled scan (see `_mjx_fns`)
+        data, sensors, state = chunk(mjx_model, grav, data, sensors, state, jparams)
+    qpos_end, nacon = data.qpos, _contact_count(data)
+    if impl == "warp" and int(nacon) >= CONTACTS_PER_WORLD * b:
+        raise RuntimeError(f"mjx-warp: contact buffer full ({int(nacon)} contacts for {b} worlds); contacts "
+                           "were dropped. Raise CONTACTS_PER_WORLD.")
+    return _outcomes(state, np.asarray(qpos_end, np.float64), layout, object_start, params.obj)

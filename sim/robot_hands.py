@@ -1,0 +1,397 @@
+"""Robot hands for grasp execution (MAP §III): a Barrett-like and a Karlsruhe-like hand, MJCF written here.
+
+Both hands sit on a floating wrist: three slide joints (world x, y, z) and three hinges composed as
+R = Rz(a) Rx(b) Ry(c) (intrinsic), each driven by a force-limited position actuator. The chain is
+singular only when the hand's y axis is vertical, which no grasp here asks for (y is the closing
+direction of the Barrett fingers and the finger direction of the Karlsruhe hand; both stay horizontal).
+
+Hand frame (both hands): origin at the centre of the palm surface, +z the palm normal (the approach
+direction: the object lies at +z when the hand grasps it), x the axis a wrap closes around.
+
+Geometry: every hand geom is a capsule, so every physics backend collides it with the objects of
+`sim.grasp_objects` (cylinders, spheres, a box) and the plane table (MJX-JAX 3.17 has capsule against
+all of those). Collision bits: the hand touches objects and the table, objects touch the table, nothing
+touches itself (contype/conaffinity below), so the fingers pass through each other but never through
+an object. One geom per link, so a link is one contact-sensor target.
+
+Sensors, per link (palm first): a `touch` sensor on a capsule site slightly larger than the link (the
+tactile pads of MAP §III), and one `contact` sensor per object (`found pos normal`, deepest contact),
+from which contact records and virtual fingers are computed. Per object a `framepos` and a `framequat`
+sensor, and the palm's `framepos`/`framequat`. All of these are computed identically by MuJoCo and
+MJX, so every backend hands the controller the same `sensordata` layout.
+
+The scene holds all six grasp objects; the active one rests on the table at the work position and the
+others are parked in the air far away with gravity compensation (`body_gravcomp` per simulation), so
+one compiled model per hand serves every grasp class.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from lfd_common import check_choice
+from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, ROBOT_GRASPS
+
+HAND_NAMES: tuple[str, ...] = ("barrett", "karlsruhe")
+WRIST_ACTUATORS: tuple[str, ...] = ("wrist_x", "wrist_y", "wrist_z", "wrist_a", "wrist_b", "wrist_c")
+TIMESTEP_S = 0.002
+# Contact bits: hand (2, 0), objects (4, 2), table (8, 6). Collide iff (ct1 & ca2) | (ct2 & ca1).
+_HAND_BITS = 'contype="2" conaffinity="0"'
+_OBJECT_BITS = 'contype="4" conaffinity="2"'
+_TABLE_BITS = 'contype="8" conaffinity="6"'
+_PARK_X_M = 3.0  # parked objects float at x = 3 + k metres, z = 1 m
+
+
+@dataclass(frozen=True)
+class Finger:
+    """One finger: base position and frame in the hand frame, link lengths, radius.
+
+    `xyaxes` gives the finger frame's x and y axes in the hand frame; the finger extends along its z
+    axis and flexes about its x axis towards its -y axis. `spread`/`oppose` add a hinge before the
+    flexion (about the finger's z axis / y axis), driven by actuator `dof` of that name.
+    """
+
+    name: str
+    pos: tuple[float, float, float]
+    xyaxes: tuple[float, ...]
+    lengths: tuple[float, float]
+    radius: float
+    flex_dof: str
+    distal_dof: str | None = None   # None: distal joint coupled to the flexion
+    extra_joint: str | None = None   # "spread" or "oppose"
+    extra_dof: str | None = None
+    extra_sign: float = 1.0
+
+
+@dataclass(frozen=True)
+class HandSpec:
+    """A robot hand: fingers, palm capsule, actuated hand DoF and grasp preshapes.
+
+    `preshapes[name] = (open, closed)`, each (n_dof,) joint targets in radians in `dofs` order.
+    """
+
+    name: str
+    palm_fromto: tuple[float, ...]
+    palm_radius: float
+    fingers: tuple[Finger, ...]
+    dofs: tuple[str, ...]
+    preshapes: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]
+    distal_coupling: tuple[float, float]  # distal = c0 + c1 * proximal for coupled distal joints
+    finger_kp: float
+    finger_force: float
+    dof_range: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        """Palm first, then each finger's proximal and distal link."""
+        return ("palm",) + tuple(f"{f.name}_{part}" for f in self.fingers for part in ("prox", "dist"))
+
+    @property
+    def link_finger(self) -> np.ndarray:
+        """(L,) int: 0 for the palm, k for a link of finger k (1-based, `fingers` order)."""
+        return np.array([0] + [k + 1 for k in range(len(self.fingers)) for _ in range(2)])
+
+
+_BARRETT = HandSpec(
+    name="barrett",
+    # palm: a capsule across the hand joining thumb side and finger side, surface at z = 0
+    palm_fromto=(0.0, -0.05, -0.028, 0.0, 0.05, -0.028), palm_radius=0.028,
+    fingers=(
+        Finger("f1", (0.026, 0.062, 0.0), (1, 0, 0, 0, 1, 0), (0.070, 0.058), 0.011, "flex1",
+               extra_joint="spread", extra_dof="spread", extra_sign=-1.0),
+        Finger("f2", (-0.026, 0.062, 0.0), (1, 0, 0, 0, 1, 0), (0.070, 0.058), 0.011, "flex2",
+               extra_joint="spread", extra_dof="spread", extra_sign=1.0),
+        Finger("f3", (0.0, -0.062, 0.0), (-1, 0, 0, 0, -1, 0), (0.070, 0.058), 0.011, "flex3"),
+    ),
+    dofs=("spread", "flex1", "flex2", "flex3"),
+    # Fig. 2 g-i: Wrap (large aperture, fingers parallel against the thumb), Two-finger Thumb (small
+    # aperture, tips pinch), Precision Disc (fingers spread 60 degrees: a tripod)
+    preshapes={
+        "Wrap": ((0.0, 0.0, 0.0, 0.0), (0.0, 2.2, 2.2, 2.2)),
+        "Two-finger Thumb": ((0.0, 0.1, 0.1, 0.1), (0.0, 1.5, 1.5, 1.5)),
+        "Precision Disc": ((1.05, 0.1, 0.1, 0.1), (1.05, 1.5, 1.5, 1.5)),
+    },
+    distal_coupling=(0.0, 0.5),  # the distal link follows the proximal at half its angle
+    finger_kp=3.0, finger_force=1.6,
+    dof_range={"spread": (0.0, 3.14), "flex1": (0.0, 2.44), "flex2": (0.0, 2.44), "flex3": (0.0, 2.44)},
+)
+
+# Karlsruhe-like: human-like, fingers extend along +y in the palm plane and curl towards +z; shorter
+# fingers than the Barrett, and the thumb base close to the finger bases (MAP §IV-A names both).
+_K_FINGER_AXES = (1, 0, 0, 0, 0, -1)  # finger z = hand +y, closing (-y_f) = hand +z
+_KARLSRUHE = HandSpec(
+    name="karlsruhe",
+    palm_fromto=(-0.03, 0.0, -0.025, 0.03, 0.0, -0.025), palm_radius=0.025,
+    fingers=(
+        Finger("thumb", (0.012, -0.04, -0.01), (0, 0, 1, 0, -1, 0), (0.040, 0.032), 0.009, "thumb_flex",
+               extra_joint="oppose", extra_dof="thumb_rot"),
+        Finger("index", (0.027, 0.040, -0.01), _K_FINGER_AXES, (0.045, 0.035), 0.0085, "index_prox",
+               distal_dof="index_dist"),
+        Finger("middle", (0.009, 0.042, -0.01), _K_FINGER_AXES, (0.048, 0.036), 0.0085, "middle_prox",
+               distal_dof="middle_dist"),
+        Finger("ring", (-0.009, 0.040, -0.01), _K_FINGER_AXES, (0.045, 0.034), 0.0085, "ring_flex"),
+        Finger("little", (-0.027, 0.036, -0.01), _K_FINGER_AXES, (0.038, 0.030), 0.008, "little_flex"),
+    ),
+    dofs=("thumb_rot", "thumb_flex", "index_prox", "index_dist", "middle_prox", "middle_dist",
+          "ring_flex", "little_flex"),
+    # Fig. 2 j-m: Power (thumb opposed to four parallel fingers), Wrap (thumb not opposed), Sphere
+    # (fingers bent more), Disc (thumb slightly more opposed, fingers straighter). The opposing thumb
+    # starts angled out (thumb_rot about 1) and swings into opposition while the hand closes.
+    preshapes={
+        "Power": ((0.3, 0.1, 0.25, 0.25, 0.25, 0.25, 0.25, 0.25),
+                  (1.5, 1.3, 1.6, 1.3, 1.6, 1.3, 1.6, 1.6)),
+        "Wrap": ((0.25, 0.0, 0.2, 0.2, 0.2, 0.2, 0.2, 0.2),
+                 (0.25, 0.9, 1.7, 1.4, 1.7, 1.4, 1.7, 1.7)),
+        "Sphere": ((1.0, 0.2, 0.55, 0.35, 0.55, 0.35, 0.55, 0.55),
+                   (1.45, 1.3, 1.5, 1.2, 1.5, 1.2, 1.5, 1.5)),
+        "Disc": ((1.1, 0.2, 0.15, 0.1, 0.15, 0.1, 0.15, 0.15),
+                 (1.57, 1.2, 1.2, 0.9, 1.2, 0.9, 1.2, 1.2)),
+    },
+    distal_coupling=(0.0, 0.8),
+    finger_kp=2.0, finger_force=1.0,
+    dof_range={"thumb_rot": (0.0, 1.6)},
+)
+HANDS: dict[str, HandSpec] = {"barrett": _BARRETT, "karlsruhe": _KARLSRUHE}
+
+
+def hand_spec(hand: str) -> HandSpec:
+    """The `HandSpec` of `hand` ("barrett" or "karlsruhe"); ValueError naming `hand` otherwise."""
+    return HANDS[check_choice(hand, "hand", HAND_NAMES)]
+
+
+def _fmt(values) -> str:
+    return " ".join(f"{v:.4g}" for v in values)
+
+
+def _finger_xml(f: Finger, spec: HandSpec) -> tuple[str, list[str]]:
+    """MJCF body chain of one finger, and its equality constraints."""
+    l1, l2 = f.lengths
+    lo, hi = spec.dof_range.get(f.flex_dof, (-0.2, 2.3))
+    extra = ""
+    if f.extra_joint == "spread":
+        extra = (f'<joint name="{f.name}_spread" axis="0 0 {f.extra_sign:g}" range="-0.1 3.2" '
+                 f'damping="0.05" armature="0.002"/>')
+    elif f.extra_joint == "oppose":
+        extra = '<joint name="thumb_rot" axis="0 1 0" range="-0.1 1.7" damping="0.05" armature="0.002"/>'
+    pad = f.radius + 0.003
+    body = f"""
+      <body name="{f.name}" pos="{_fmt(f.pos)}" xyaxes="{_fmt(f.xyaxes)}" gravcomp="1">
+        {extra}
+        <joint name="{f.name}_prox" axis="1 0 0" range="{lo:g} {hi:g}" damping="0.05" armature="0.002"/>
+        <geom name="{f.name}_prox" type="capsule" fromto="0 0 0 0 0 {l1:g}" size="{f.radius:g}" {_HAND_BITS} rgba="0.35 0.35 0.4 1" mass="0.06"/>
+        <site name="{f.name}_prox" type="capsule" fromto="0 0 0 0 0 {l1:g}" size="{pad:g}" rgba="0 0 0 0"/>
+        <body name="{f.name}_dist" pos="0 0 {l1:g}" gravcomp="1">
+          <joint name="{f.name}_dist" axis="1 0 0" range="-0.2 2.3" damping="0.05" armature="0.002"/>
+          <geom name="{f.name}_dist" type="capsule" fromto="0 0 0 0 0 {l2:g}" size="{f.radius:g}" {_HAND_BITS} rgba="0.5 0.5 0.55 1" mass="0.04"/>
+          <site name="{f.name}_dist" type="capsule" fromto="0 0 0 0 0 {l2:g}" size="{pad:g}" rgba="0 0 0 0"/>
+          <site name="{f.name}_tip" pos="0 0 {l2:g}" size="0.004"/>
+        </body>
+      </body>"""
+    equalities = []
+    if f.distal_dof is None:
+        c0, c1 = spec.distal_coupling
+        equalities.append(f'<joint joint1="{f.name}_dist" joint2="{f.name}_prox" polycoef="{c0:g} {c1:g} 0 0 0" '
+                          f'solref="0.005 1"/>')
+    return body, equalities
+
+
+def _hand_xml(spec: HandSpec) -> tuple[str, str, str]:
+    """(hand body MJCF, actuator MJCF, equality MJCF) of `spec` on the floating wrist."""
+    fingers, equalities = [], []
+    for f in spec.fingers:
+        body, eq = _finger_xml(f, spec)
+        fingers.append(body)
+        equalities += eq
+    # the second spread joint follows the first (Barrett: one spread DoF for two fingers)
+    spread = [f for f in spec.fingers if f.extra_joint == "spread"]
+    for f in spread[1:]:
+        equalities.append(f'<joint joint1="{f.name}_spread" joint2="{spread[0].name}_spread" '
+                          f'polycoef="0 1 0 0 0" solref="0.005 1"/>')
+    palm_pad = spec.palm_radius + 0.003
+    hand = f"""
+    <body name="hand" gravcomp="1">
+      <joint name="wrist_x" type="slide" axis="1 0 0" damping="20"/>
+      <joint name="wrist_y" type="slide" axis="0 1 0" damping="20"/>
+      <joint name="wrist_z" type="slide" axis="0 0 1" damping="20"/>
+      <joint name="wrist_a" axis="0 0 1" damping="2" armature="0.01"/>
+      <joint name="wrist_b" axis="1 0 0" damping="2" armature="0.01"/>
+      <joint name="wrist_c" axis="0 1 0" damping="2" armature="0.01"/>
+      <geom name="palm" type="capsule" fromto="{_fmt(spec.palm_fromto)}" size="{spec.palm_radius:g}" {_HAND_BITS} rgba="0.25 0.25 0.3 1" mass="0.6"/>
+      <geom name="wrist" type="capsule" fromto="0 0 -0.05 0 0 -0.12" size="0.02" contype="0" conaffinity="0" rgba="0.3 0.3 0.35 1" mass="0.2"/>
+      <site name="palm" type="capsule" fromto="{_fmt(spec.palm_fromto)}" size="{palm_pad:g}" rgba="0 0 0 0"/>
+      <site name="palm_centre" pos="0 0 0" size="0.004"/>
+      {"".join(fingers)}
+    </body>"""
+    wrist_act = "".join(
+        f'<position name="{n}" joint="{n}" kp="{kp:g}" kv="{kv:g}" forcerange="-{f:g} {f:g}"/>'
+        for n, kp, kv, f in [("wrist_x", 2000, 80, 40), ("wrist_y", 2000, 80, 40), ("wrist_z", 2000, 80, 40),
+                             ("wrist_a", 200, 8, 20), ("wrist_b", 200, 8, 20), ("wrist_c", 200, 8, 20)])
+    joint_of = {}
+    for f in spec.fingers:
+        joint_of.setdefault(f.flex_dof, f"{f.name}_prox")
+        if f.distal_dof:
+            joint_of[f.distal_dof] = f"{f.name}_dist"
+        if f.extra_dof:
+            joint_of.setdefault(f.extra_dof, f"{f.name}_{f.extra_joint}" if f.extra_joint == "spread" else "thumb_rot")
+    # Barrett: one flexion actuator per finger; a DoF shared by several joints drives the first and the
+    # equality constraints carry the others
+    hand_act = "".join(
+        f'<position name="{d}" joint="{joint_of[d]}" kp="{spec.finger_kp:g}" kv="0.05" '
+        f'forcerange="-{spec.finger_force:g} {spec.finger_force:g}"/>' for d in spec.dofs)
+    return hand, wrist_act + hand_act, "".join(equalities)
+
+
+def _sensor_xml(spec: HandSpec) -> str:
+    touch = "".join(f'<touch name="touch_{ln}" site="{ln}"/>' for ln in spec.link_names)
+    contact = "".join(
+        f'<contact name="contact_{ln}_{g}" geom1="{ln}" geom2="object{g}" data="found pos normal" '
+        f'reduce="mindist" num="1"/>' for ln in spec.link_names for g in GRASP_CLASSES)
+    frames = "".join(f'<framepos name="pos_object{g}" objtype="body" objname="object{g}"/>'
+                     f'<framequat name="quat_object{g}" objtype="body" objname="object{g}"/>'
+                     for g in GRASP_CLASSES)
+    palm = ('<framepos name="pos_palm" objtype="site" objname="palm_centre"/>'
+            '<framequat name="quat_palm" objtype="site" objname="palm_centre"/>')
+    return touch + contact + frames + palm
+
+
+def grasp_scene_xml(hand: str) -> str:
+    """MJCF of `hand` on its floating wrist, a plane table at z = 0 and the six grasp objects.
+
+    Object `object{g}` (g a grasp class) has a free joint; by default every object is parked in the air
+    at x = 3 + k m (k its index in `GRASP_CLASSES`); `place_objects` puts one on the table.
+    """
+    spec = hand_spec(hand)
+    hand_body, actuators, equalities = _hand_xml(spec)
+    objects = []
+    for k, g in enumerate(GRASP_CLASSES):
+        obj = GRASP_OBJECTS[g]
+        objects.append(f'<body name="object{g}" pos="{_PARK_X_M + k:g} 0 1" gravcomp="1"><freejoint name="object{g}"/>'
+                       + obj.geom_xml(name=f"object{g}", rgba="0.1 0.1 0.1 1",
+                                      extra=f'{_OBJECT_BITS} condim="4"') + "</body>")
+    return f"""<mujoco model="grasp_{spec.name}">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{TIMESTEP_S}" integrator="implicitfast" cone="elliptic" impratio="10"/>
+  <visual><global offwidth="640" offheight="480"/></visual>
+  <default><geom solref="0.004 1" solimp="0.95 0.99 0.001" friction="1 0.01 0.001"/></default>
+  <asset>
+    <texture name="grid" type="2d" builtin="checker" rgb1=".75 .72 .65" rgb2=".68 .65 .58" width="256" height="256"/>
+    <material name="grid" texture="grid" texrepeat="8 8"/>
+  </asset>
+  <worldbody>
+    <light pos="0.3 -0.6 1.5" dir="-0.2 0.4 -1" diffuse="0.8 0.8 0.8"/>
+    <light pos="-0.5 0.5 1.2" dir="0.4 -0.4 -1" diffuse="0.4 0.4 0.4"/>
+    <camera name="front" pos="0.5 -0.5 0.45" xyaxes="0.707 0.707 0 -0.299 0.299 0.906"/>
+    <geom name="table" type="plane" size="1.5 1.5 0.1" material="grid" {_TABLE_BITS} condim="4"/>
+    {hand_body}
+    {"".join(objects)}
+  </worldbody>
+  <equality>{equalities}</equality>
+  <actuator>{actuators}</actuator>
+  <sensor>{_sensor_xml(spec)}</sensor>
+</mujoco>"""
+
+
+@dataclass(frozen=True)
+class SceneLayout:
+    """Where things are in a compiled grasp scene's `qpos`, `ctrl` and `sensordata` (all numpy ints).
+
+    L links (palm first), G objects (`GRASP_CLASSES` order), U actuators (6 wrist, then hand DoF).
+    """
+
+    hand: str
+    n_links: int
+    touch: np.ndarray           # (L,) sensordata index of each link's touch sensor
+    contact: np.ndarray         # (L, G) start of each (link, object) contact sensor: found, pos(3), normal(3)
+    object_pos: np.ndarray      # (G,) start of each object's framepos (3)
+    object_quat: np.ndarray     # (G,) start of each object's framequat (4)
+    palm_pos: int
+    palm_quat: int
+    object_qpos: np.ndarray     # (G,) start of each object's free joint in qpos (7)
+    object_body: np.ndarray     # (G,) body id of each object
+    wrist_qpos: np.ndarray      # (6,) qpos index of the wrist joints
+    hand_qpos: np.ndarray       # (n_dof,) qpos index of the joint each hand actuator drives
+    n_ctrl: int
+    link_finger: np.ndarray     # (L,) 0 palm, k finger k
+    fingertip_site: np.ndarray  # (F,) site ids of the fingertips
+
+
+    @property
+    def peak_sensors(self) -> np.ndarray:
+        """sensordata indices read at their peak over a control period: every touch sensor and every
+        contact sensor's `found` count."""
+        return np.concatenate([self.touch, self.contact.ravel()])
+
+
+def scene_layout(model: mujoco.MjModel, hand: str) -> SceneLayout:
+    """The `SceneLayout` of a model compiled from `grasp_scene_xml(hand)`."""
+    spec = hand_spec(hand)
+
+    def sensor(name: str) -> int:
+        return int(model.sensor_adr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)])
+
+    def qadr(joint: str) -> int:
+        return int(model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)])
+
+    links = spec.link_names
+    return SceneLayout(
+        hand=spec.name,
+        n_links=len(links),
+        touch=np.array([sensor(f"touch_{ln}") for ln in links]),
+        contact=np.array([[sensor(f"contact_{ln}_{g}") for g in GRASP_CLASSES] for ln in links]),
+        object_pos=np.array([sensor(f"pos_object{g}") for g in GRASP_CLASSES]),
+        object_quat=np.array([sensor(f"quat_object{g}") for g in GRASP_CLASSES]),
+        palm_pos=sensor("pos_palm"), palm_quat=sensor("quat_palm"),
+        object_qpos=np.array([qadr(f"object{g}") for g in GRASP_CLASSES]),
+        object_body=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"object{g}")
+                              for g in GRASP_CLASSES]),
+        wrist_qpos=np.array([qadr(n) for n in WRIST_ACTUATORS]),
+        hand_qpos=np.array([qadr(model.joint(model.actuator(d).trnid[0]).name) for d in spec.dofs]),
+        n_ctrl=model.nu,
+        link_finger=spec.link_finger,
+        fingertip_site=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{f.name}_tip")
+                                 for f in spec.fingers]),
+    )
+
+
+def grasp_model(hand: str) -> tuple[mujoco.MjModel, SceneLayout]:
+    """Compile `grasp_scene_xml(hand)`; return the model and its layout."""
+    model = mujoco.MjModel.from_xml_string(grasp_scene_xml(hand))
+    return model, scene_layout(model, hand)
+
+
+def preshape(hand: str, robot_grasp: str) -> tuple[np.ndarray, np.ndarray]:
+    """(open, closed) hand-DoF targets (n_dof,) of `robot_grasp` on `hand`; ValueError if unknown."""
+    spec = hand_spec(hand)
+    name = check_choice(robot_grasp, "robot_grasp", ROBOT_GRASPS[spec.name])
+    open_, closed = spec.preshapes[name]
+    return np.asarray(open_, float), np.asarray(closed, float)
+
+
+def hand_joint_qpos(model: mujoco.MjModel, hand: str, targets: np.ndarray) -> np.ndarray:
+    """Hand joint positions (nq,) that satisfy the couplings for hand-DoF `targets` (n_dof,).
+
+    Starting the fingers in their preshape (equality constraints satisfied) avoids a violent first step.
+    """
+    spec = hand_spec(hand)
+    qpos = model.qpos0.copy()
+    value = dict(zip(spec.dofs, np.asarray(targets, float)))
+
+    def set_joint(name: str, v: float) -> None:
+        qpos[model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)]] = v
+
+    c0, c1 = spec.distal_coupling
+    for f in spec.fingers:
+        set_joint(f"{f.name}_prox", value[f.flex_dof])
+        set_joint(f"{f.name}_dist", value[f.distal_dof] if f.distal_dof else c0 + c1 * value[f.flex_dof])
+        if f.extra_joint == "spread":
+            set_joint(f"{f.name}_spread", value[f.extra_dof])
+        elif f.extra_joint == "oppose":
+            set_joint("thumb_rot", value[f.extra_dof])
+    return qpos
+
+
+def parked_position(object_index: int) -> np.ndarray:
+    """Where object `object_index` (index into `GRASP_CLASSES`) floats while another is grasped."""
+    return np.array([_PARK_X_M + object_index, 0.0, 1.0])

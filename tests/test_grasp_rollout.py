@@ -1,0 +1,215 @@
+"""Grasp strategy, rollouts on every backend, virtual fingers, the experiment's smoke test."""
+import itertools
+
+import sim  # noqa: F401
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sim.grasp_objects import GRASP_CLASSES, VOLAR_GRASPS
+from sim.grasp_rollout import resolve_backend, rollout_grasps, warp_status
+from sim.grasp_strategy import (ALPHA0, APPROACH, CLOSE, CONTROL_DT_S, RETRACT, TOUCH_THRESHOLD_N, controller_step,
+                                initial_state, plan_trials)
+from sim.robot_hands import grasp_model
+from sim.virtual_fingers import (VirtualFingers, entities_from_links, group_virtual_fingers,
+                                 match_virtual_fingers)
+
+
+def _plan(hand, grasps, tactile=True, offsets=None):
+    grasps = np.asarray(grasps)
+    b = len(grasps)
+    offsets = np.zeros((b, 2)) if offsets is None else offsets
+    return plan_trials(hand, grasps, offsets, np.zeros(b), np.full(b, tactile), np.arange(b))
+
+
+# ------------------------------------------------------------------ controller (pure function)
+
+def _sensors(layout, nsensordata, obj, touch_links, contact_pos):
+    """Synthetic sensordata (1, S): touch on `touch_links`, a contact with object `obj` at contact_pos."""
+    s = np.zeros((1, nsensordata), np.float32)
+    for ln in touch_links:
+        s[0, layout.touch[ln]] = 1.0
+        adr = layout.contact[ln, obj]
+        s[0, adr:adr + 7] = [1, *contact_pos, 0, 0, 1]
+    s[0, layout.object_quat[obj]] = 1.0
+    s[0, layout.palm_quat] = 1.0
+    s[0, layout.palm_pos:layout.palm_pos + 3] = [0.0, -0.1, 0.09]
+    return jnp.asarray(s)
+
+
+@pytest.fixture(scope="module")
+def barrett():
+    model, layout = grasp_model("barrett")
+    return model, layout
+
+
+def test_approach_moves_at_most_one_step_towards_the_goal(barrett):
+    model, layout = barrett
+    params, _ = _plan("barrett", [1])
+    state = initial_state(params, layout.n_links)
+    new, ctrl = controller_step(state, _sensors(layout, model.nsensordata, 0, [], [0, 0, 0]), params, layout)
+    moved = np.linalg.norm(np.asarray(new.cmd - state.cmd))
+    assert 0 < moved <= 0.25 * CONTROL_DT_S + 1e-6
+    assert int(new.phase[0]) == APPROACH
+    np.testing.assert_allclose(np.asarray(ctrl[0, :3]), np.asarray(new.cmd[0]))
+    np.testing.assert_allclose(np.asarray(ctrl[0, 6:]), params.open_[0])
+
+
+def test_tactile_correction_replans_with_alpha(barrett):
+    """A first touch on a finger (not the palm) of a volar grasp: retract, p_new = a c + (1 - a) p_old,
+    a <- a^2; with correction off, or with a palm touch, close instead."""
+    model, layout = barrett
+    params, _ = _plan("barrett", [1])
+    state = initial_state(params, layout.n_links)
+    c = np.array([0.03, -0.05, 0.1])
+    finger = _sensors(layout, model.nsensordata, 0, [2], c)
+    new, _ = controller_step(state, finger, params, layout)
+    assert int(new.phase[0]) == RETRACT and int(new.n_corr[0]) == 1 and not bool(new.palm_first[0])
+    np.testing.assert_allclose(np.asarray(new.goal[0]), ALPHA0 * c + (1 - ALPHA0) * params.goal[0], atol=1e-6)
+    assert float(new.alpha[0]) == pytest.approx(ALPHA0 ** 2)
+    off, _ = _plan("barrett", [1], tactile=False)
+    new_off, _ = controller_step(initial_state(off, layout.n_links), finger, off, layout)
+    assert int(new_off.phase[0]) == CLOSE
+    palm = _sensors(layout, model.nsensordata, 0, [0], c)
+    new_palm, _ = controller_step(state, palm, params, layout)
+    assert int(new_palm.phase[0]) == CLOSE and bool(new_palm.palm_first[0])
+    assert TOUCH_THRESHOLD_N < 1.0
+
+
+def test_open_loop_grasps_ignore_touches(barrett):
+    model, layout = barrett
+    params, _ = _plan("barrett", [9])
+    assert 9 not in VOLAR_GRASPS
+    state = initial_state(params, layout.n_links)
+    new, _ = controller_step(state, _sensors(layout, model.nsensordata, 3, [2], [0, 0, 0.02]), params, layout)
+    assert int(new.phase[0]) == APPROACH and bool(new.touched[0])
+
+
+# ------------------------------------------------------------------ virtual fingers
+
+def _brute_force_match(r_pos, r_nrm, h_pos, h_nrm):
+    """All injective assignments of the smaller set into the larger; min summed distance."""
+    best = None
+    small, large = (r_pos, h_pos) if len(r_pos) <= len(h_pos) else (h_pos, r_pos)
+    for perm in itertools.permutations(range(len(large)), len(small)):
+        d = sum(np.linalg.norm(small[i] - large[j]) for i, j in enumerate(perm))
+        if best is None or d < best[0]:
+            pairs = [(i, j) if len(r_pos) <= len(h_pos) else (j, i) for i, j in enumerate(perm)]
+            best = (d, pairs)
+    pairs = best[1]
+    pos = np.mean([np.linalg.norm(r_pos[i] - h_pos[j]) for i, j in pairs]) * 1e3
+    ang = np.mean([np.degrees(np.arccos(np.clip(r_nrm[i] @ h_nrm[j], -1, 1))) for i, j in pairs])
+    return pos, ang, len(pairs)
+
+
+def test_matching_equals_brute_force():
+    rng = np.random.default_rng(0)
+    for trial in range(5):
+        n_r, n_h = rng.integers(1, 7, size=2)
+        vf = []
+        for n in (n_r, n_h):
+            valid = np.zeros(6, bool)
+            valid[rng.choice(6, n, replace=False)] = True
+            nrm = rng.normal(size=(6, 3))
+            vf.append(VirtualFingers(jnp.asarray(valid[None]), jnp.asarray(rng.normal(0, 0.05, (1, 6, 3))),
+                                     jnp.asarray((nrm / np.linalg.norm(nrm, axis=1, keepdims=True))[None])))
+        err = match_virtual_fingers(*vf)
+        r, h = vf
+        pick = lambda v, k: np.asarray(getattr(v, k)[0])[np.asarray(v.valid[0])]  # noqa: E731
+        pos, ang, n = _brute_force_match(pick(r, "pos"), pick(r, "normal"), pick(h, "pos"), pick(h, "normal"))
+        assert float(err.position_mm[0]) == pytest.approx(pos, rel=1e-4)
+        assert float(err.orientation_deg[0]) == pytest.approx(ang, rel=1e-3, abs=1e-2)
+        assert int(err.n_matched[0]) == n == min(n_r, n_h)
+
+
+def test_grouping_merges_fingers_with_similar_normals():
+    """Two fingers pressing from the same side form one virtual finger; the palm stays alone."""
+    contacts = np.zeros((1, 4, 7))
+    contacts[0, 0] = [1, 0, -0.04, 0, 0, -1, 0]      # palm
+    contacts[0, 1] = [1, 0.01, 0.04, 0, 0, 1, 0]      # finger 1
+    contacts[0, 2] = [1, -0.01, 0.04, 0, 0, 0.96, 0.28]  # finger 2, 16 degrees away
+    contacts[0, 3] = [1, 0.04, 0, 0, 1, 0, 0]         # finger 3, 90 degrees away
+    vf = group_virtual_fingers(entities_from_links(jnp.asarray(contacts, jnp.float32), jnp.array([0, 1, 2, 3])))
+    assert np.asarray(vf.valid[0]).tolist() == [True, True, False, True, False, False]
+    np.testing.assert_allclose(np.asarray(vf.pos[0, 1]), [0.0, 0.04, 0.0], atol=1e-6)
+
+
+# ------------------------------------------------------------------ backends
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="backend"):
+        resolve_backend("cuda")
+    if warp_status():
+        with pytest.raises(ValueError, match="not available on this machine"):
+            resolve_backend("mjx-warp")
+        assert resolve_backend("auto") == "native"
+    with pytest.raises(ValueError, match="grasps"):
+        _plan("barrett", [3])
+    with pytest.raises(ValueError, match="hand"):
+        _plan("shadow", [1])
+    with pytest.raises(ValueError, match="offsets"):
+        _plan("barrett", [1], offsets=np.array([[0.5, 0.0]]))
+    params, start = _plan("barrett", [1])
+    bad = params._replace(goal=np.array([[np.nan, 0, 0]], np.float32))
+    with pytest.raises(ValueError, match="params.goal"):
+        rollout_grasps("barrett", bad, start, backend="native")
+    with pytest.raises(ValueError, match="object_start"):
+        rollout_grasps("barrett", params, np.zeros((2, 3)), backend="native")
+
+
+@pytest.fixture(scope="module", params=["barrett", "karlsruhe"])
+def native_runs(request):
+    hand = request.param
+    params, start = _plan(hand, GRASP_CLASSES)
+    return hand, params, start, rollout_grasps(hand, params, start, backend="native")
+
+
+# Known failure (issue 10 is open): the Karlsruhe Power preshape closes above the 3 cm cube of the Pinch
+# grasp without touching it. Listed here so that any other miss fails, and this one is reported as xfail.
+KNOWN_MISSES = {("karlsruhe", 9)}
+
+
+def test_every_hand_object_pair_makes_contact_on_native(native_runs):
+    """Every grasp's object was touched by the hand (all hand-object pairs collide and step)."""
+    hand, _, _, native = native_runs
+    touched = (native.contacts[..., 0] > 0).any(-1) | (native.first_link >= 0)
+    missed = {(hand, g) for g, t in zip(GRASP_CLASSES, touched) if not t}
+    assert not missed - KNOWN_MISSES, f"objects never touched: {sorted(missed)}"
+    if missed:
+        pytest.xfail(f"known misses {sorted(missed)} (issue 10)")
+
+
+@pytest.mark.slow_mjx
+def test_native_and_mjx_jax_agree(native_runs):
+    """One trial per grasp: the same outcome (lifted or not, palm touched first or not), the same set
+    of touching links up to one link per trial, and final object positions within 1 cm; every object is
+    touched on MJX too.
+
+    MJX (float32; its own capsule-cylinder/box collision routines and solver) and MuJoCo (float64) are
+    not bit-identical, so trajectories drift apart by fractions of a millimetre; a link that ends up
+    grazing the object (within that drift of touching it) can be in contact on one backend only. The
+    outcomes a trial reports must not depend on that.
+
+    Opt-in (LFD_SLOW_MJX=1): a cold MJX-JAX compile of the rollout takes 8-10 min per hand on 2 cores.
+    Known to fail for the Barrett hand as of 2026-11-23 (issue 10 is open)."""
+    hand, params, start, native = native_runs
+    mjx_out = rollout_grasps(hand, params, start, backend="mjx-jax")
+    assert np.all((mjx_out.contacts[..., 0] > 0).any(-1) | (mjx_out.first_link >= 0))
+    np.testing.assert_array_equal(native.lifted, mjx_out.lifted)
+    np.testing.assert_array_equal(native.palm_first, mjx_out.palm_first)
+    differ = (native.contacts[..., 0] > 0) != (mjx_out.contacts[..., 0] > 0)      # (grasps, links)
+    assert differ.sum(-1).max() <= 1, differ
+    np.testing.assert_allclose(native.object_end, mjx_out.object_end, atol=0.01)
+
+
+def test_experiment_smoke(tmp_path):
+    from experiments import grasp_mapping
+
+    metrics = grasp_mapping.main(["--preset", "quick", "--out", str(tmp_path), "--grasps", "1,12",
+                                  "--n-directions", "2", "--tilts-deg", "15", "--image-width", "64",
+                                  "--image-height", "48"])
+    assert metrics["backend"] == "native"
+    assert metrics["trials"] == 2 * (1 + 2 + 1) * (2 + 1)
+    assert set(metrics["success_rate"]) == {"barrett", "karlsruhe"}
+    for name in ("report.md", "fig4.png", "success.png", "frames.png", "frame_barrett_1.png"):
+        assert (tmp_path / name).exists()
