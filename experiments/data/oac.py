@@ -51,6 +51,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -639,7 +640,16 @@ def masked_hog(images: np.ndarray, masks: np.ndarray, n_bins: int, n_levels: int
 
 
 def _cache_path(settings: OACSettings):
-    key = json.dumps({"version": _VERSION, **dataclasses.asdict(settings)}, sort_keys=True)
+    """Keyed by every setting, this generator's source and the hand model's source and postures, so a
+    change to the simulation never reuses stale renders."""
+    import inspect
+
+    import sim.human_grasps
+    import sim.human_hand
+
+    code = hashlib.sha1("".join(inspect.getsource(m) for m in (sys.modules[__name__], sim.human_hand,
+                                                               sim.human_grasps)).encode()).hexdigest()
+    key = json.dumps({"version": _VERSION, "code": code, **dataclasses.asdict(settings)}, sort_keys=True)
     digest = hashlib.sha1(key.encode()).hexdigest()[:16]
     return cache_dir("oac") / f"oac_{digest}.npz"
 
