@@ -614,7 +614,8 @@ def demo_stage(cfg, run: RunOutput) -> tuple[dict, str]:
     synthesised by the reaching PHMM, retargeted (eqs. 10-24) and played back in MuJoCo.
     Writes `phmm_demo.png`. `cfg` needs a `seed` field (the demo's DemoConfig)."""
     start = time.perf_counter()
-    models, train = _demo_models(0, 4, 10)
+    quick = PRESETS["quick"]  # the demo trains with the quick preset's settings, on the outer corners only
+    models, train = _demo_models(0, quick["train_repetitions"], quick["n_iter"])
     rng = np.random.default_rng(cfg.seed)
     subject = tt.sample_subject(np.random.default_rng(0))  # the trained demonstrator
     target = tt.RASTER_ORIGIN + np.r_[rng.uniform(0.15, 0.85, 2) * tt.RASTER_SIZE_M, 0.0]
