@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from lfd_common import as_array, check_real
+from sim.scenes import checker_asset_xml
 
 UPPER_ARM_M = 0.105
 FOREARM_M = 0.145  # elbow to grasp point
@@ -51,10 +52,7 @@ def arm_scene_xml(table_top_z: float, table_near_y: float = 0.05, targets=None, 
     return f"""<mujoco model="hoap3_like_arm">
   <compiler angle="radian"/>
   <visual><global offwidth="640" offheight="480"/></visual>
-  <asset>
-    <texture name="grid" type="2d" builtin="checker" rgb1="0.8 0.8 0.8" rgb2="0.7 0.7 0.7" width="64" height="64"/>
-    <material name="grid" texture="grid" texrepeat="8 8"/>
-  </asset>
+  {checker_asset_xml("0.8 0.8 0.8", "0.7 0.7 0.7", texture_px=64)}
   <worldbody>
     <light pos="0.3 -0.5 1.5" dir="-0.2 0.4 -1"/>
     <geom name="floor" type="plane" size="1 1 0.01" material="grid" contype="0" conaffinity="0"/>

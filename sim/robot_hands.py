@@ -33,6 +33,7 @@ import numpy as np
 
 from lfd_common import check_choice
 from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, ROBOT_GRASPS
+from sim.scenes import checker_asset_xml
 
 HAND_NAMES: tuple[str, ...] = ("barrett", "karlsruhe")
 WRIST_ACTUATORS: tuple[str, ...] = ("wrist_x", "wrist_y", "wrist_z", "wrist_a", "wrist_b", "wrist_c")
@@ -275,10 +276,7 @@ def grasp_scene_xml(hand: str) -> str:
   <option timestep="{TIMESTEP_S}" integrator="implicitfast" cone="elliptic" impratio="10"/>
   <visual><global offwidth="640" offheight="480"/></visual>
   <default><geom solref="0.004 1" solimp="0.95 0.99 0.001" friction="1 0.01 0.001"/></default>
-  <asset>
-    <texture name="grid" type="2d" builtin="checker" rgb1=".75 .72 .65" rgb2=".68 .65 .58" width="256" height="256"/>
-    <material name="grid" texture="grid" texrepeat="8 8"/>
-  </asset>
+  {checker_asset_xml(".75 .72 .65", ".68 .65 .58")}
   <worldbody>
     <light pos="0.3 -0.6 1.5" dir="-0.2 0.4 -1" diffuse="0.8 0.8 0.8"/>
     <light pos="-0.5 0.5 1.2" dir="0.4 -0.4 -1" diffuse="0.4 0.4 0.4"/>

@@ -9,6 +9,13 @@ _TABLE_HEIGHT_M = 0.75
 _OBJECT_COLOURS = ("0.85 0.2 0.2 1", "0.2 0.6 0.85 1", "0.95 0.75 0.2 1", "0.3 0.75 0.35 1")
 
 
+def checker_asset_xml(rgb1: str, rgb2: str, texrepeat: int = 8, texture_px: int = 256) -> str:
+    """An MJCF `<asset>` with a checker texture and the material "grid" that floors and tables use."""
+    return (f'<asset><texture name="grid" type="2d" builtin="checker" rgb1="{rgb1}" rgb2="{rgb2}" '
+            f'width="{texture_px}" height="{texture_px}"/>'
+            f'<material name="grid" texture="grid" texrepeat="{texrepeat} {texrepeat}"/></asset>')
+
+
 def tabletop_drop_scene(n_objects: int = 3, timestep_s: float = 0.004) -> str:
     """A table with `n_objects` free spheres and boxes above it, and a fixed camera named "front".
 
@@ -27,10 +34,7 @@ def tabletop_drop_scene(n_objects: int = 3, timestep_s: float = 0.004) -> str:
     return f"""<mujoco model="tabletop_drop">
   <option timestep="{timestep_s}"/>
   <visual><global offwidth="640" offheight="480"/></visual>
-  <asset>
-    <texture name="grid" type="2d" builtin="checker" rgb1=".55 .55 .6" rgb2=".45 .45 .5" width="256" height="256"/>
-    <material name="grid" texture="grid" texrepeat="6 6"/>
-  </asset>
+  {checker_asset_xml(".55 .55 .6", ".45 .45 .5", texrepeat=6)}
   <worldbody>
     <light pos="0.3 -0.5 2.2" dir="-0.1 0.2 -1" diffuse="0.8 0.8 0.8"/>
     <camera name="front" pos="0 -0.95 1.5" xyaxes="1 0 0 0 0.7 0.714"/>
