@@ -1,5 +1,5 @@
-"""Batched inference on padded sequences: the public functions check their input, then call jitted
-`vmap`s of the single-sequence routines of `phmm_jax.inference`.
+"""Batched inference on padded sequences: the public functions check their input, then call the
+jitted batch routines of `phmm_jax.inference` (which work batch-last) and return batch-first arrays.
 
 Shapes: B sequences, T frames (padded), D features, N states, P pseudo-states per state.
 """
@@ -21,17 +21,32 @@ def emission_log_densities(hmm: HMM, X):
     return gaussian_log_density(X, hmm.means, hmm.covariances)
 
 
+def emission_columns(hmm: HMM, X):
+    """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`."""
+    return jnp.moveaxis(gaussian_log_density(jnp.swapaxes(X, 0, 1), hmm.means, hmm.covariances), -1, 1)
+
+
 @jax.jit
 def batch_log_likelihood(hmm: HMM, X, lengths):
     """Jitted core of `log_likelihood` on checked, padded device arrays."""
-    log_b = emission_log_densities(hmm, X)
-    return jax.vmap(inference.forward_loglik, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+    return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
+
+
+@jax.jit
+def batch_column_messages(hmm: HMM, X, lengths) -> inference.Messages:
+    """Messages in the column layout (T, N, P, B)."""
+    return inference.forward_backward(inference.chain(hmm), emission_columns(hmm, X), lengths)
+
+
+def _batch_first(a):
+    """(T, ..., B) -> (B, T, ...)."""
+    return jnp.moveaxis(a, -1, 0)
 
 
 @jax.jit
 def batch_messages(hmm: HMM, X, lengths) -> inference.Messages:
-    log_b = emission_log_densities(hmm, X)
-    return jax.vmap(inference.forward_backward, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+    log_alpha, log_beta, loglik = batch_column_messages(hmm, X, lengths)
+    return inference.Messages(_batch_first(log_alpha), _batch_first(log_beta), loglik)
 
 
 class Posteriors(NamedTuple):
@@ -45,15 +60,15 @@ class Posteriors(NamedTuple):
 
 @jax.jit
 def batch_posteriors(hmm: HMM, X, lengths) -> Posteriors:
-    messages = batch_messages(hmm, X, lengths)
-    pseudo = jax.vmap(inference.pseudo_posteriors)(messages)
-    return Posteriors(jnp.sum(pseudo, axis=-1), pseudo, messages.loglik)
+    pseudo, loglik = inference.pseudo_state_posteriors(inference.chain(hmm), emission_columns(hmm, X), lengths)
+    # Summing over P before the transpose to batch-first is 2x faster than after it (XLA:CPU).
+    return Posteriors(_batch_first(jnp.sum(pseudo, axis=2)), _batch_first(pseudo), loglik)
 
 
 @jax.jit
 def batch_viterbi(hmm: HMM, X, lengths):
-    log_b = emission_log_densities(hmm, X)
-    return jax.vmap(inference.viterbi, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+    states, pseudo, score = inference.viterbi(inference.chain(hmm), emission_columns(hmm, X), lengths)
+    return states.T, pseudo.T, score
 
 
 def _checked(hmm: HMM, X, lengths):

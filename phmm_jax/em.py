@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from phmm_jax import inference
-from phmm_jax.api import emission_log_densities
+from phmm_jax.api import emission_columns
 from phmm_jax.data import check_feasible, pad_sequences, to_device
 from phmm_jax.model import HMM, HMMConfig, transitions_from_counts
 
@@ -23,17 +23,17 @@ _MIN_RESPONSIBILITY = 1e-6
 
 
 def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, update_means: bool = True):
-    """Weighted Gaussian estimates from responsibilities gamma (B, T, N) and frames X (B, T, D).
+    """Weighted Gaussian estimates from responsibilities gamma (T, N, B) and frames X (B, T, D).
 
     Returns (means (N, D), covariances (N, D, D), number of starved states). A starved state (total
     responsibility below 1e-6) keeps `previous`'s Gaussian (identity covariance when None) instead of
     producing NaN. `update_means=False` keeps `previous.means` (synchronised local training).
     """
     dim = X.shape[-1]
-    weight = jnp.sum(gamma, axis=(0, 1))  # (N,)
+    weight = jnp.sum(gamma, axis=(0, 2))  # (N,)
     starved = weight < _MIN_RESPONSIBILITY
     safe_weight = jnp.where(starved, 1.0, weight)
-    new_means = jnp.einsum("btn,btd->nd", gamma, X) / safe_weight[:, None]
+    new_means = jnp.einsum("tnb,btd->nd", gamma, X) / safe_weight[:, None]
     fallback_means = new_means if previous is None else previous.means
     means = jnp.where(starved[:, None], fallback_means, new_means)
     if not update_means:
@@ -41,9 +41,9 @@ def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, update_me
     centred = X[:, :, None, :] - means  # (B, T, N, D)
     eye = jnp.eye(dim, dtype=X.dtype)
     if config.covariance_type == "full":
-        scatter = jnp.einsum("btn,btnd,btne->nde", gamma, centred, centred)
+        scatter = jnp.einsum("tnb,btnd,btne->nde", gamma, centred, centred)
     else:
-        scatter = jnp.einsum("btn,btnd->nd", gamma, centred * centred)[:, :, None] * eye
+        scatter = jnp.einsum("tnb,btnd->nd", gamma, centred * centred)[:, :, None] * eye
     covariances = scatter / safe_weight[:, None, None] + config.reg_covar * eye
     fallback_cov = jnp.broadcast_to(eye, covariances.shape) if previous is None else previous.covariances
     covariances = jnp.where(starved[:, None, None], fallback_cov, covariances)
@@ -51,14 +51,9 @@ def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, update_me
 
 
 def sufficient_statistics(hmm: HMM, X, lengths, weights):
-    """E step: weighted state posteriors (B, T, N), continue and exit counts (N, P), log-liks (B,)."""
-    log_b = emission_log_densities(hmm, X)
-    messages = jax.vmap(inference.forward_backward, in_axes=(None, 0, 0))(hmm, log_b, lengths)
-    gamma = jnp.sum(jax.vmap(inference.pseudo_posteriors)(messages), axis=-1) * weights[:, None, None]
-    cont, exits = jax.vmap(inference.expected_transitions, in_axes=(None, 0, 0, 0))(hmm, log_b, lengths, messages)
-    cont = jnp.einsum("b,bnp->np", weights, cont)
-    exits = jnp.einsum("b,bnp->np", weights, exits)
-    return gamma, cont, exits, messages.loglik
+    """E step: weighted state posteriors (T, N, B), continue and exit counts (N, P), log-liks (B,)."""
+    stats = inference.expected_statistics(inference.chain(hmm), emission_columns(hmm, X), lengths, weights)
+    return stats.state, stats.cont[..., 0], stats.exits[..., 0], stats.loglik
 
 
 @partial(jax.jit, static_argnames=("update_means",))
@@ -76,18 +71,18 @@ def em_step(hmm: HMM, X, lengths, weights, update_means: bool = True):
 
 
 def equal_segmentation(lengths, n_frames: int, n_states: int, dtype=jnp.float32):
-    """One-hot responsibilities (B, T, N): frame t of a sequence of length L belongs to state ⌊tN/L⌋."""
-    t = jnp.arange(n_frames)[None, :]
-    state = jnp.floor(t * n_states / lengths[:, None]).astype(jnp.int32)
-    one_hot = jax.nn.one_hot(state, n_states, dtype=dtype)
-    return one_hot * (t < lengths[:, None])[..., None]
+    """One-hot responsibilities (T, N, B): frame t of a sequence of length L belongs to state ⌊tN/L⌋."""
+    t = jnp.arange(n_frames)[:, None]
+    state = jnp.floor(t * n_states / lengths).astype(jnp.int32)  # (T, B)
+    one_hot = jax.nn.one_hot(state, n_states, axis=1, dtype=dtype)
+    return one_hot * (t < lengths)[:, None]
 
 
 @partial(jax.jit, static_argnames=("config",))
 def initial_hmm(config: HMMConfig, X, lengths, weights) -> HMM:
     """A left-to-right start: Gaussians from an equal segmentation in time; uniform duration
     hazards (explicit durations) or self-loops matching the mean segment length (classical)."""
-    gamma = equal_segmentation(lengths, X.shape[1], config.n_states, X.dtype) * weights[:, None, None]
+    gamma = equal_segmentation(lengths, X.shape[1], config.n_states, X.dtype) * weights
     means, covariances, _ = gaussian_m_step(config, gamma, X, None)
     if config.explicit_duration:
         log_cont, log_exit = transitions_from_counts(

@@ -15,7 +15,7 @@ import numpy as np
 import optax
 
 from phmm_jax import inference
-from phmm_jax.api import emission_log_densities
+from phmm_jax.api import emission_columns
 from phmm_jax.data import check_feasible, pad_sequences, to_device
 from phmm_jax.em import initial_hmm
 from phmm_jax.model import HMM, HMMConfig, allowed_transitions, duration_log_probs, transitions_from_durations
@@ -69,8 +69,7 @@ def from_unconstrained(config: HMMConfig, params: Unconstrained) -> HMM:
 def mean_negative_loglik(params: Unconstrained, config: HMMConfig, X, lengths):
     """Negative log-likelihood per frame of the padded batch (the objective)."""
     hmm = from_unconstrained(config, params)
-    log_b = emission_log_densities(hmm, X)
-    loglik = jax.vmap(inference.forward_loglik, in_axes=(None, 0, 0))(hmm, log_b, lengths)
+    loglik = inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
     return -jnp.sum(loglik) / jnp.sum(lengths)
 
 

@@ -94,16 +94,17 @@ def interpolate(phmm: PHMM, phi) -> HMM:
     return HMM(means, covariances, log_cont, log_exit, config)
 
 
-def _loglik_one(phmm: PHMM, x, length, phi):
-    hmm = interpolate(phmm, phi)
-    log_b = gaussian_log_density(x, hmm.means, hmm.covariances)
-    return inference.forward_loglik(hmm, log_b, length)
+def _loglik(phmm: PHMM, X, lengths, phi):
+    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d)."""
+    hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)  # arrays with a leading B axis
+    log_b = jax.vmap(gaussian_log_density)(X, hmms.means, hmms.covariances)  # (B, T, N)
+    return inference.forward_loglik(inference.stacked_chain(hmms), inference.to_columns(log_b), lengths)
 
 
 @jax.jit
 def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
     """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D) and φ (B, d). Differentiable in φ."""
-    return jax.vmap(_loglik_one, in_axes=(None, 0, 0, 0))(phmm, X, lengths, phi)
+    return _loglik(phmm, X, lengths, phi)
 
 
 def _check_phi(phmm: PHMM, phi, batch: int):
@@ -177,16 +178,22 @@ def _start_lattice(n_params: int, points: int) -> jnp.ndarray:
     return jnp.asarray(np.stack(np.meshgrid(*[axis] * n_params, indexing="ij"), -1).reshape(-1, n_params))
 
 
-@partial(jax.jit, static_argnames=("n_steps", "lattice_points"))
-def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_steps: int, lattice_points: int):
+@partial(jax.jit, static_argnames=("n_steps", "lattice_points", "refine"))
+def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_steps: int, lattice_points: int,
+            refine: bool):
     """φ* for every sequence: best point of a coarse lattice under `coarse`, projected Adam ascent
-    under `coarse`, then under the full grid (`phmm`) from there. Returns (φ (B, d), loglik (B,))."""
-    lattice = _start_lattice(phmm.n_params, lattice_points)
+    under `coarse`, then (`refine`) under the full grid (`phmm`) from there. Returns (φ (B, d), loglik (B,)).
 
-    def ascend(model, x, length, phi0):
-        objective = lambda phi: -_loglik_one(model, x, length, phi) / length  # noqa: E731
-        schedule = optax.cosine_decay_schedule(learning_rate, n_steps)
-        opt = optax.adam(schedule)
+    The batch is optimised as one objective, the sum of per-frame log-likelihoods: sequence b's term
+    depends on φ_b only and Adam's update is elementwise, so every sequence follows its own ascent."""
+    lattice = _start_lattice(phmm.n_params, lattice_points)  # (M, d)
+    batch = X.shape[0]
+    scores = jax.vmap(lambda phi: _loglik(coarse, X, lengths, jnp.broadcast_to(phi, (batch, phi.shape[0]))))(lattice)
+    schedule = optax.cosine_decay_schedule(learning_rate, n_steps)
+    opt = optax.adam(schedule)
+
+    def ascend(model, phi0):
+        objective = lambda phi: -jnp.sum(_loglik(model, X, lengths, phi) / lengths)  # noqa: E731
 
         def step(carry, _):
             phi, state = carry
@@ -198,13 +205,10 @@ def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_step
         (phi, _), _ = jax.lax.scan(step, (phi0, opt.init(phi0)), None, length=n_steps)
         return phi
 
-    def one(x, length):
-        scores = jax.vmap(lambda phi: _loglik_one(coarse, x, length, phi))(lattice)
-        phi = ascend(coarse, x, length, lattice[jnp.argmax(scores)])
-        phi = ascend(phmm, x, length, phi)
-        return phi, _loglik_one(phmm, x, length, phi)
-
-    return jax.vmap(one)(X, lengths)
+    phi = ascend(coarse, lattice[jnp.argmax(scores, axis=0)])
+    if refine:
+        phi = ascend(phmm, phi)
+    return phi, _loglik(phmm, X, lengths, phi)
 
 
 def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 40, learning_rate: float = 0.05,
@@ -229,7 +233,9 @@ def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 40, l
             raise ValueError(f"phmms[{k}]: differs in feature dimension or parameter count from phmms[0]")
         check_feasible(phmm.config, lengths)
     X, lengths = to_device(X, lengths)
-    results = [_search(p, p.outer(), X, lengths, epsilon, learning_rate, n_steps, lattice_points) for p in phmms]
+    # A grid of 2 points per parameter is its own outermost-corner model: nothing to refine.
+    results = [_search(p, p.outer(), X, lengths, epsilon, learning_rate, n_steps, lattice_points,
+                       refine=any(g > 2 for g in p.grid_shape)) for p in phmms]
     phi = np.stack([np.asarray(r[0]) for r in results], axis=1)
     loglik = np.stack([np.asarray(r[1]) for r in results], axis=1)
     return Recognition(np.argmax(loglik, axis=1), phi, loglik)

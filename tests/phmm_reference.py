@@ -45,8 +45,9 @@ def brute_force(hmm, x):
     return logsumexp(scores), scores[best], paths[best]
 
 
-def dense_forward_backward(dense, x):
-    """Forward-backward on a DenseHMM with end weights: (loglik, state posteriors (T, S))."""
+def dense_forward_backward(dense, x, with_counts: bool = False):
+    """Forward-backward on a DenseHMM with end weights: (loglik, state posteriors (T, S)), and with
+    `with_counts` also the expected transition counts (S, S) and end probabilities (S,)."""
     log_b = emission_table(dense.means, dense.covariances, x)
     n_frames, size = log_b.shape
     alpha = np.zeros((n_frames, size))
@@ -58,4 +59,8 @@ def dense_forward_backward(dense, x):
     for t in range(n_frames - 2, -1, -1):
         beta[t] = logsumexp(dense.log_transition + (log_b[t + 1] + beta[t + 1])[None, :], axis=1)
     loglik = logsumexp(alpha[-1] + dense.log_final)
-    return loglik, np.exp(alpha + beta - loglik)
+    if not with_counts:
+        return loglik, np.exp(alpha + beta - loglik)
+    pairs = alpha[:-1, :, None] + dense.log_transition + (log_b[1:] + beta[1:])[:, None, :]  # (T-1, S, S)
+    counts = np.exp(logsumexp(pairs, axis=0) - loglik)
+    return loglik, np.exp(alpha + beta - loglik), counts, np.exp(alpha[-1] + dense.log_final - loglik)

@@ -105,26 +105,38 @@ def test_expand_to_dense_is_stochastic_with_the_end():
     assert dense.log_transition[0, 2 * 4] == -np.inf  # no skipping a state
 
 
-def test_posteriors_and_counts_are_gradients_of_loglik():
-    cfg = STRUCTURES[0]
+@pytest.mark.parametrize("cfg", STRUCTURES)
+def test_gradient_posteriors_and_counts_match_forward_backward(cfg):
+    """The E-step statistics (gradients of the log-likelihood) equal the explicit float64 numpy
+    forward-backward's posteriors and expected transition counts, and our log-space messages."""
     rng = np.random.default_rng(4)
     hmm = random_hmm(cfg, rng)
-    X, lengths = jnp.asarray(rng.normal(size=(2, 10, 2))), jnp.asarray([10, 8])
-    log_b = api.emission_log_densities(hmm, X)
-
-    def total(log_b, log_cont, log_exit):
-        model = hmm.replace(log_cont=log_cont, log_exit=log_exit)
-        return jnp.sum(jax.vmap(inference.forward_loglik, in_axes=(None, 0, 0))(model, log_b, lengths))
-
-    g_b, g_cont, g_exit = jax.grad(total, argnums=(0, 1, 2))(log_b, hmm.log_cont, hmm.log_exit)
-    messages = jax.vmap(inference.forward_backward, in_axes=(None, 0, 0))(hmm, log_b, lengths)
-    post = jnp.sum(jax.vmap(inference.pseudo_posteriors)(messages), axis=-1)
-    cont, exits = jax.vmap(inference.expected_transitions, in_axes=(None, 0, 0, 0))(hmm, log_b, lengths, messages)
-    np.testing.assert_allclose(g_b, post, atol=1e-10)
-    np.testing.assert_allclose(g_cont, cont.sum(0), atol=1e-10)
-    np.testing.assert_allclose(g_exit, exits.sum(0), atol=1e-10)
-    # Every explicit-duration state is left exactly once per sequence.
-    np.testing.assert_allclose(exits.sum(-1), 1.0, atol=1e-10)
+    X, lengths = rng.normal(size=(3, 9, 2)), np.array([9, 7, 8])  # feasible for every structure
+    weights = np.array([1.0, 0.5, 2.0])
+    log_b = api.emission_columns(hmm, jnp.asarray(X))  # (T, N, B)
+    chain = inference.chain(hmm)
+    stats = inference.expected_statistics(chain, log_b, jnp.asarray(lengths), jnp.asarray(weights))
+    pseudo, _ = inference.pseudo_state_posteriors(chain, log_b, jnp.asarray(lengths))
+    messages = inference.forward_backward(chain, log_b, jnp.asarray(lengths))
+    np.testing.assert_allclose(pseudo, inference.pseudo_posteriors(messages), atol=1e-10)
+    n, p = cfg.n_states, cfg.n_pseudo
+    dense = P.expand_to_dense(hmm)
+    cont_ref, exit_ref = np.zeros((n, p)), np.zeros((n, p))
+    for b, length in enumerate(lengths):
+        loglik, post, counts, end = dense_forward_backward(dense, X[b, :length], with_counts=True)
+        np.testing.assert_allclose(stats.loglik[b], loglik, rtol=1e-10)
+        np.testing.assert_allclose(stats.state[:length, :, b], weights[b] * post.reshape(length, n, p).sum(-1),
+                                   atol=1e-10)
+        np.testing.assert_allclose(pseudo[:length, :, :, b], post.reshape(length, n, p), atol=1e-10)
+        assert np.all(np.asarray(stats.state[length:, :, b]) == 0)
+        for i, j in np.ndindex(n, p):
+            s = i * p + j
+            cont_ref[i, j] += weights[b] * counts[s, i * p + min(j + 1, p - 1)]
+            exit_ref[i, j] += weights[b] * (counts[s, (i + 1) * p] if i + 1 < n else end[s])
+    np.testing.assert_allclose(stats.cont[..., 0], cont_ref, atol=1e-10)
+    np.testing.assert_allclose(stats.exits[..., 0], exit_ref, atol=1e-10)
+    if cfg.explicit_duration:  # every explicit-duration state is left exactly once per sequence
+        np.testing.assert_allclose(stats.exits[..., 0].sum(-1), weights.sum(), atol=1e-10)
 
 
 def test_padding_leaks_into_neither_values_nor_gradients():
@@ -180,3 +192,4 @@ def test_bad_input_is_named():
     # A list of unequal sequences is padded for the user.
     out = P.log_likelihood(hmm, [np.zeros((8, 2)), np.zeros((7, 2))])
     np.testing.assert_allclose(out, P.log_likelihood(hmm, padded, lengths=[8, 7]))
+
