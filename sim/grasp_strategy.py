@@ -7,7 +7,10 @@ its wrap axis the human's thumb axis. Volar grasps (Large and Small Diameter) ap
 the human palm is about parallel to the table (normal within 30 degrees of vertical), else from the
 side, horizontally, towards the estimated object centroid. Non-volar grasps approach open-loop to a
 predefined distance: where the closing fingertips reach the object (`contact_depth`), but with the
-palm at most `PALM_GAP_M` from the object's surface (the table stops longer fingers earlier).
+palm at most `PALM_GAP_M` from the object's surface; from the top, no closer than where the open
+fingertip sites (the centres of the capsule ends) are `TIP_CLEARANCE_M` above the table: long fingers
+then rest lightly on the table and close along it onto a low object's sides, instead of landing on the
+object (clearing the table by the whole capsule radius made the Barrett's cube and disc grasps worse).
 
 Control (JAX, jittable, vectorised over trials B): `controller_step(state, sensordata, params, layout)`
 -> (state, ctrl) is one pure function, a state machine with phases APPROACH, RETRACT, CLOSE, LIFT, HOLD,
@@ -46,12 +49,13 @@ TOUCH_THRESHOLD_N = 0.05
 ALPHA0 = 0.7
 MAX_CORRECTIONS = 2
 APPROACH_TIMEOUT_S = 1.5       # per approach leg: then close wherever the hand is
-CLOSE_S, SETTLE_S = 0.4, 0.3
+CLOSE_S, SETTLE_S = 0.8, 0.3    # a slow close: a fast one flicks light objects away
 LIFT_M, LIFT_SPEED_M_S = 0.10, 0.2
 HOLD_S = 1.0
-HORIZON_S = 5.2                # enough for two corrections; `n_control_steps()` control steps
+HORIZON_S = 5.6                # enough for two corrections; `n_control_steps()` control steps
 TOP_APPROACH_MAX_DEG = 30.0
 PALM_GAP_M = 0.02              # open-loop approaches stop at most this far from the object's surface
+TIP_CLEARANCE_M = 0.005        # ... and, from the top, with the open fingertip sites this far above the table
 
 
 def n_control_steps() -> int:
@@ -66,7 +70,8 @@ class TrialParams(NamedTuple):
     direction (the hand's z axis); wrist (B, 3): wrist hinge angles (Rz Rx Ry, rad); start (B, 3):
     where the palm centre starts; standoff (B,): palm-to-goal distance at which an open-loop approach
     stops (0 for volar: approach until contact); volar (B,) and tactile (B,) bool; open_, closed (B, D)
-    hand targets; obj (B,) int: index of the active object in `GRASP_CLASSES`.
+    hand targets; obj (B,) int: index of the active object in `GRASP_CLASSES`; hold_s (B,): how long
+    the lifted object is held (s; `HOLD_S` in the study).
     """
 
     goal: np.ndarray
@@ -79,6 +84,7 @@ class TrialParams(NamedTuple):
     open_: np.ndarray
     closed: np.ndarray
     obj: np.ndarray
+    hold_s: np.ndarray
 
 
 class ControllerState(NamedTuple):
@@ -226,7 +232,7 @@ def controller_step(state: ControllerState, sensordata: jax.Array, params: Trial
     lift_done = in_lift & (t > LIFT_M / LIFT_SPEED_M_S + 0.1)
     hold_obj = jnp.where(lift_done[:, None], obj_in_palm, state.hold_obj)
     in_hold = phase == HOLD
-    hold_done = in_hold & (t > HOLD_S)
+    hold_done = in_hold & (t > params.hold_s)
     slip = jnp.where(hold_done, jnp.linalg.norm(obj_in_palm - state.hold_obj, axis=-1), state.slip_m)
     end_obj = jnp.where(hold_done[:, None], obj_pos, state.end_obj)
 
@@ -325,14 +331,16 @@ def _seeded_normal(seeds: np.ndarray, stream: int, shape: tuple[int, ...]) -> np
 
 
 def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: str = "map2009",
-                pos_noise_m: float = 0.003, rot_noise_deg: float = 2.0) -> tuple[TrialParams, np.ndarray]:
+                pos_noise_m: float = 0.003, rot_noise_deg: float = 2.0,
+                hold_s: float = HOLD_S) -> tuple[TrialParams, np.ndarray]:
     """Plan B trials of `hand`, one per row of the equal-length arrays below.
 
     grasps (B,): human grasp classes; offsets (B, 2): true object position minus the estimate, on the
     table (m, |offset| <= 0.2); tilts_deg (B,): orientation error of the estimate (deg, |.| <= 90): the
     planned hand pose is rotated by it about a horizontal axis through the object centre (for a side
     approach the approach tilts downwards); tactile (B,) bool: tactile correction on; seeds (B,) int:
-    hand-pose noise (position `pos_noise_m`, rotation `rot_noise_deg`, Gaussian per axis).
+    hand-pose noise (position `pos_noise_m`, rotation `rot_noise_deg`, Gaussian per axis); hold_s:
+    how long the lifted object is held (s, [CONTROL_DT_S, HOLD_S]; shorter only to make a test cheaper).
     Returns (params, object start positions (B, 3)).
     """
     spec = hand_spec(hand)
@@ -347,6 +355,7 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     seeds = as_array(seeds, "seeds", shape=(b,), dtype=np.int64, min_value=0)
     pos_noise_m = check_real(pos_noise_m, "pos_noise_m", min_value=0.0, max_value=0.05)
     rot_noise_deg = check_real(rot_noise_deg, "rot_noise_deg", min_value=0.0, max_value=20.0)
+    hold_s = check_real(hold_s, "hold_s", min_value=CONTROL_DT_S, max_value=HOLD_S)
 
     # per grasp class (6 rows, `GRASP_CLASSES` order), then gathered per trial
     frames = [human_hand_frame(g) for g in GRASP_CLASSES]
@@ -356,8 +365,12 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     widths = np.array([object_extent(g, np.cross(a, x)) for g, (a, x) in zip(GRASP_CLASSES, frames)])
     depth = np.array([contact_depth(spec.name, r, w) for r, w in zip(robots, widths)])
     volar_cls = np.isin(GRASP_CLASSES, list(VOLAR_GRASPS))
-    standoff_cls = np.where(volar_cls, 0.0, np.clip(depth, extents + 0.01, extents + PALM_GAP_M))
     reach_cls = np.array([fingertip_sweep(spec.name, r)[0, :, 2].max() for r in robots])
+    rest_cls = np.array([GRASP_OBJECTS[g].rest_height_m for g in GRASP_CLASSES])
+    top_cls = np.array([a[2] < -np.cos(np.radians(TOP_APPROACH_MAX_DEG)) for a, _ in frames])
+    table_cls = np.where(top_cls, reach_cls - rest_cls + TIP_CLEARANCE_M, 0.0)
+    standoff_cls = np.where(volar_cls, 0.0,
+                            np.maximum(np.clip(depth, extents + 0.01, extents + PALM_GAP_M), table_cls))
     cls = np.searchsorted(GRASP_CLASSES, grasps)                                 # (B,)
 
     approach = np.stack([a for a, _ in frames])[cls]
@@ -371,7 +384,7 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     rot = np.stack([_unit(axis), np.cross(approach, axis), approach], -1)      # columns x, y, z (B, 3, 3)
     rot = noise @ r_err @ rot
     approach = rot[:, :, 2]
-    rest = np.array([GRASP_OBJECTS[g].rest_height_m for g in GRASP_CLASSES])[cls]
+    rest = rest_cls[cls]
     goal = np.stack([np.zeros(b), np.zeros(b), rest], -1) + pos_noise_m * _seeded_normal(seeds, 2, (3,))
     extent = np.choose(cls, [object_extent(g, approach) for g in GRASP_CLASSES])
     standoff = standoff_cls[cls]
@@ -381,6 +394,6 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
         wrist=_wrist_angles(rot).astype(np.float32), start=start.astype(np.float32),
         standoff=standoff.astype(np.float32), volar=volar_cls[cls], tactile=tactile,
         open_=shapes[cls, 0].astype(np.float32), closed=shapes[cls, 1].astype(np.float32),
-        obj=cls.astype(np.int32))
+        obj=cls.astype(np.int32), hold_s=np.full(b, hold_s, np.float32))
     object_start = np.stack([offsets[:, 0], offsets[:, 1], rest], -1)
     return params, object_start

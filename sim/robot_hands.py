@@ -14,6 +14,12 @@ all of those). Collision bits: the hand touches objects and the table, objects t
 touches itself (contype/conaffinity below), so the fingers pass through each other but never through
 an object. One geom per link, so a link is one contact-sensor target.
 
+Contacts: elliptic friction cones, `impratio` 1 and hand friction 1.5 (rubber-like pads; an object
+pair takes the larger coefficient). A larger `impratio` (10) stiffens friction but makes the Newton
+solver need its whole default budget (100 iterations, 50 line-search steps) to stay stable; with 1,
+8 and 8 suffice and MuJoCo's results do not change when they are raised (see `SOLVER_ITERATIONS`).
+The slip of a held object is reported by `experiments.grasp_mapping`.
+
 Sensors, per link (palm first): a `touch` sensor on a capsule site slightly larger than the link (the
 tactile pads of MAP §III), and one `contact` sensor per object (`found pos normal`, deepest contact),
 from which contact records and virtual fingers are computed. Per object a `framepos` and a `framequat`
@@ -38,8 +44,13 @@ from sim.scenes import checker_asset_xml
 HAND_NAMES: tuple[str, ...] = ("barrett", "karlsruhe")
 WRIST_ACTUATORS: tuple[str, ...] = ("wrist_x", "wrist_y", "wrist_z", "wrist_a", "wrist_b", "wrist_c")
 TIMESTEP_S = 0.002
+# Constraint solver caps, the same on every backend: with impratio 1 Newton converges within them (the
+# sample grasps give the same outcomes with 8/8 as with MuJoCo's defaults 100/50), and MJX-JAX runs
+# every line-search iteration of every world under `vmap` (a batched `lax.cond` evaluates both
+# branches), so the default 50 would cost 50 evaluations per Newton iteration.
+SOLVER_ITERATIONS, LS_ITERATIONS = 8, 8
 # Contact bits: hand (2, 0), objects (4, 2), table (8, 6). Collide iff (ct1 & ca2) | (ct2 & ca1).
-_HAND_BITS = 'contype="2" conaffinity="0"'
+_HAND_BITS = 'contype="2" conaffinity="0" friction="1.5 0.01 0.001"'
 _OBJECT_BITS = 'contype="4" conaffinity="2"'
 _TABLE_BITS = 'contype="8" conaffinity="6"'
 _PARK_X_M = 3.0  # parked objects float at x = 3 + k metres, z = 1 m
@@ -112,7 +123,7 @@ _BARRETT = HandSpec(
     preshapes={
         "Wrap": ((0.0, 0.0, 0.0, 0.0), (0.0, 2.2, 2.2, 2.2)),
         "Two-finger Thumb": ((0.0, 0.1, 0.1, 0.1), (0.0, 1.5, 1.5, 1.5)),
-        "Precision Disc": ((1.05, 0.1, 0.1, 0.1), (1.05, 1.5, 1.5, 1.5)),
+        "Precision Disc": ((1.05, 0.0, 0.0, 0.0), (1.05, 1.5, 1.5, 1.5)),
     },
     distal_coupling=(0.0, 0.5),  # the distal link follows the proximal at half its angle
     finger_kp=3.0, finger_force=1.6,
@@ -126,7 +137,7 @@ _KARLSRUHE = HandSpec(
     name="karlsruhe",
     palm_fromto=(-0.03, 0.0, -0.025, 0.03, 0.0, -0.025), palm_radius=0.025,
     fingers=(
-        Finger("thumb", (0.012, -0.04, -0.01), (0, 0, 1, 0, -1, 0), (0.040, 0.032), 0.009, "thumb_flex",
+        Finger("thumb", (0.015, -0.045, -0.01), (0, -1, 0, 1, 0, 0), (0.040, 0.032), 0.009, "thumb_flex",
                extra_joint="oppose", extra_dof="thumb_rot"),
         Finger("index", (0.027, 0.040, -0.01), _K_FINGER_AXES, (0.045, 0.035), 0.0085, "index_prox",
                distal_dof="index_dist"),
@@ -137,22 +148,24 @@ _KARLSRUHE = HandSpec(
     ),
     dofs=("thumb_rot", "thumb_flex", "index_prox", "index_dist", "middle_prox", "middle_dist",
           "ring_flex", "little_flex"),
-    # Fig. 2 j-m: Power (thumb opposed to four parallel fingers), Wrap (thumb not opposed), Sphere
-    # (fingers bent more), Disc (thumb slightly more opposed, fingers straighter). The opposing thumb
-    # starts angled out (thumb_rot about 1) and swings into opposition while the hand closes.
+    # Fig. 2 j-m: Power (thumb opposed to four parallel fingers), Wrap (thumb not opposed: it flexes
+    # across the palm), Sphere (fingers bent more), Disc (thumb opposed, fingers straighter). The thumb
+    # stands on the palm pointing along the palm normal; thumb_rot turns its flexion plane from across
+    # the palm (0) to towards the fingers (pi/2, opposition), and an opposing thumb starts extended
+    # away from the fingers (negative flexion) so the object passes it on the approach.
     preshapes={
-        "Power": ((0.3, 0.1, 0.25, 0.25, 0.25, 0.25, 0.25, 0.25),
-                  (1.5, 1.3, 1.6, 1.3, 1.6, 1.3, 1.6, 1.6)),
-        "Wrap": ((0.25, 0.0, 0.2, 0.2, 0.2, 0.2, 0.2, 0.2),
-                 (0.25, 0.9, 1.7, 1.4, 1.7, 1.4, 1.7, 1.7)),
-        "Sphere": ((1.0, 0.2, 0.55, 0.35, 0.55, 0.35, 0.55, 0.55),
-                   (1.45, 1.3, 1.5, 1.2, 1.5, 1.2, 1.5, 1.5)),
-        "Disc": ((1.1, 0.2, 0.15, 0.1, 0.15, 0.1, 0.15, 0.15),
-                 (1.57, 1.2, 1.2, 0.9, 1.2, 0.9, 1.2, 1.2)),
+        "Power": ((1.45, -0.5, 0.25, 0.25, 0.25, 0.25, 0.25, 0.25),
+                  (1.45, 1.4, 1.6, 1.3, 1.6, 1.3, 1.6, 1.6)),
+        "Wrap": ((0.25, -0.3, 0.2, 0.2, 0.2, 0.2, 0.2, 0.2),
+                 (0.25, 1.0, 1.7, 1.4, 1.7, 1.4, 1.7, 1.7)),
+        "Sphere": ((1.2, -0.5, 0.55, 0.35, 0.55, 0.35, 0.55, 0.55),
+                   (1.2, 1.3, 1.5, 1.2, 1.5, 1.2, 1.5, 1.5)),
+        "Disc": ((1.4, -0.6, 0.15, 0.1, 0.15, 0.1, 0.15, 0.15),
+                 (1.4, 1.2, 1.2, 0.9, 1.2, 0.9, 1.2, 1.2)),
     },
     distal_coupling=(0.0, 0.8),
     finger_kp=2.0, finger_force=1.0,
-    dof_range={"thumb_rot": (0.0, 1.6)},
+    dof_range={"thumb_flex": (-0.8, 2.0)},
 )
 HANDS: dict[str, HandSpec] = {"barrett": _BARRETT, "karlsruhe": _KARLSRUHE}
 
@@ -175,7 +188,7 @@ def _finger_xml(f: Finger, spec: HandSpec) -> tuple[str, list[str]]:
         extra = (f'<joint name="{f.name}_spread" axis="0 0 {f.extra_sign:g}" range="-0.1 3.2" '
                  f'damping="0.05" armature="0.002"/>')
     elif f.extra_joint == "oppose":
-        extra = '<joint name="thumb_rot" axis="0 1 0" range="-0.1 1.7" damping="0.05" armature="0.002"/>'
+        extra = '<joint name="thumb_rot" axis="0 0 -1" range="-0.1 1.7" damping="0.05" armature="0.002"/>'
     pad = f.radius + 0.003
     body = f"""
       <body name="{f.name}" pos="{_fmt(f.pos)}" xyaxes="{_fmt(f.xyaxes)}" gravcomp="1">
@@ -273,7 +286,13 @@ def grasp_scene_xml(hand: str) -> str:
                                       extra=f'{_OBJECT_BITS} condim="4"') + "</body>")
     return f"""<mujoco model="grasp_{spec.name}">
   <compiler angle="radian" autolimits="true"/>
-  <option timestep="{TIMESTEP_S}" integrator="implicitfast" cone="elliptic" impratio="10"/>
+  <option timestep="{TIMESTEP_S}" integrator="implicitfast" cone="elliptic" impratio="1"
+          iterations="{SOLVER_ITERATIONS}" ls_iterations="{LS_ITERATIONS}"/>
+  <custom>
+    <!-- MJX-JAX only (MuJoCo ignores these): collide each hand link with the nearest object of each
+         geom type only. The parked objects are metres away, so no contact is lost. -->
+    <numeric name="max_geom_pairs" data="{len(spec.link_names)}"/>
+  </custom>
   <visual><global offwidth="640" offheight="480"/></visual>
   <default><geom solref="0.004 1" solimp="0.95 0.99 0.001" friction="1 0.01 0.001"/></default>
   {checker_asset_xml(".75 .72 .65", ".68 .65 .58")}

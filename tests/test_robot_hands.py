@@ -83,13 +83,15 @@ def test_fingers_close_towards_the_palm_normal_and_couplings_hold(scene):
 
 
 def test_touch_sensor_feels_an_object_on_the_palm_only(scene):
-    """An object resting on the upturned palm loads the palm's touch sensor with about its weight."""
+    """An object resting on the upturned palm loads the palm's touch sensor with about its weight (the
+    fingers in the open preshape of the hand's first grasp: the Karlsruhe thumb extended away)."""
     hand, model, layout = scene
     rot = np.eye(3)                      # palm normal +z: the palm faces up
+    fingers = preshape(hand, ROBOT_GRASPS[hand][0])[0][None]
     params = TrialParams(goal=np.zeros((1, 3)), approach=np.array([[0, 0, 1.0]]), wrist=_wrist_angles(rot[None]),
                          start=np.array([[0, 0, 0.3]]), standoff=np.zeros(1), volar=np.ones(1, bool),
-                         tactile=np.ones(1, bool), open_=np.zeros((1, len(hand_spec(hand).dofs))),
-                         closed=np.zeros((1, len(hand_spec(hand).dofs))), obj=np.array([4]))
+                         tactile=np.ones(1, bool), open_=fingers, closed=fingers, obj=np.array([4]),
+                         hold_s=np.ones(1))
     obj = GRASP_OBJECTS[GRASP_CLASSES[4]]       # the ball
     palm_top = 0.3
     qpos = initial_qpos(model, hand, layout, params, np.array([[0.0, 0.0, palm_top + obj.size[0] + 0.002]]))
@@ -97,6 +99,7 @@ def test_touch_sensor_feels_an_object_on_the_palm_only(scene):
     data = mujoco.MjData(model)
     data.qpos[:] = qpos[0]
     data.ctrl[:6] = [0, 0, 0.3, *params.wrist[0]]
+    data.ctrl[6:] = fingers[0]
     for _ in range(300):
         mujoco.mj_step(model, data)
     touch = data.sensordata[layout.touch]

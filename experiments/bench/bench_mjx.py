@@ -86,7 +86,7 @@ def serial_rollout(hand: str, params, object_start) -> None:
     import jax.numpy as jnp
     import mujoco
 
-    from sim.grasp_rollout import SUBSTEPS, initial_qpos, object_gravcomp
+    from sim.grasp_rollout import SUBSTEPS, first_readings, initial_qpos, object_gravcomp
     from sim.grasp_strategy import DONE, TrialParams, controller_step, initial_state, n_control_steps
     from sim.robot_hands import grasp_model
 
@@ -100,16 +100,15 @@ def serial_rollout(hand: str, params, object_start) -> None:
         data = mujoco.MjData(model)
         data.qpos[:] = qpos[i]
         state = initial_state(p, layout.n_links)
-        _, ctrl = control(state, jnp.zeros((1, model.nsensordata)), p)
-        data.ctrl[:] = np.asarray(ctrl)[0]
-        mujoco.mj_forward(model, data)
+        sensors = first_readings(1, model)
         for _ in range(n_control_steps()):
-            state, ctrl = control(state, jnp.asarray(data.sensordata[None], jnp.float32), p)
+            state, ctrl = control(state, jnp.asarray(sensors, jnp.float32), p)
             if int(state.phase[0]) == DONE:
                 break
             data.ctrl[:] = np.asarray(ctrl)[0]
             for _ in range(SUBSTEPS):
                 mujoco.mj_step(model, data)
+            sensors = data.sensordata[None]
 
 
 def controller_only(hand: str, params) -> float:
