@@ -4,7 +4,7 @@ The four libraries (`phmm_jax`, `hog_jax`, `crf_jax`, `sim`) must not import `ex
 other for plumbing, so the little they share lives here.
 """
 from lfd_common.jaxsetup import cache_dir, enable_compilation_cache
-from lfd_common.persist import SCHEMA_VERSION, load_arrays, save_arrays
+from lfd_common.persist import SCHEMA_VERSION, load_arrays, save_arrays, write_npz
 from lfd_common.validate import as_array, check_choice, check_int, check_real
 
 __all__ = [
@@ -17,4 +17,5 @@ __all__ = [
     "enable_compilation_cache",
     "load_arrays",
     "save_arrays",
+    "write_npz",
 ]

@@ -7,6 +7,8 @@ failure (missing, truncated, corrupt, another kind of model, a newer schema) is 
 from __future__ import annotations
 
 import json
+import os
+import tempfile
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -52,8 +54,26 @@ def save_arrays(
     for name, value in payload.items():
         if value.dtype == object:
             raise ValueError(f"arrays[{name!r}]: object arrays cannot be stored (no pickles)")
+    write_npz(path, **{_META_KEY: np.asarray(meta_json)}, **payload)
+    return path
+
+
+def write_npz(path, **arrays) -> Path:
+    """`np.savez` to `path` atomically: written to a temporary file in the same folder, then renamed.
+
+    Caches are shared by concurrent processes (the test suite runs on two pytest-xdist workers), and
+    a reader must never see a half-written file.
+    """
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, **{_META_KEY: np.asarray(meta_json)}, **payload)
+    handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    try:
+        with os.fdopen(handle, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
     return path
 
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from lfd_common import cache_dir
+from lfd_common import cache_dir, write_npz
 
 N_CLASSES = 6
 # per class: mean curl (radians) of thumb, index, middle, ring, little; finger spread factor; thumb angle
@@ -125,5 +125,5 @@ def features(n: int, seed: int = 0, size: int = 64, n_bins: int = 4, n_levels: i
         os_.append(o)
     x, y, o = np.concatenate(xs), np.concatenate(ys), np.concatenate(os_)
     if cache:
-        np.savez(path, x=x, y=y, o=o)
+        write_npz(path, x=x, y=y, o=o)
     return x, y, o

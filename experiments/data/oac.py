@@ -57,7 +57,7 @@ from typing import NamedTuple
 import numpy as np
 
 import sim  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
-from lfd_common import cache_dir, check_int, check_real
+from lfd_common import cache_dir, check_int, check_real, write_npz
 
 CLASSES: tuple[str, ...] = ("look through binoculars", "drink from cup", "pour from pitcher")
 ACTIONS: tuple[str, ...] = ("look through", "drink from", "pour from")
@@ -700,7 +700,7 @@ def generate(settings: OACSettings = OACSettings(), cache: bool = True, progress
         hand_true=pad([r["hand_true"] for r in recs]),
     )
     if cache:
-        np.savez(path, **data._asdict())
+        write_npz(path, **data._asdict())
     return data
 
 

@@ -36,7 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from lfd_common import as_array, cache_dir, check_choice, check_int, check_real
+from lfd_common import as_array, cache_dir, check_choice, check_int, check_real, write_npz
 
 MARKERS = ("sternum", "shoulder", "elbow", "wrist", "index_knuckle", "index_tip", "thumb_tip")
 ACTIONS = ("reaching", "pointing")
@@ -445,7 +445,7 @@ def protocol_data(seed: int, train_raster=(3, 3), train_repetitions: int = 10, t
         targets = raster_targets(*raster)
         out.append(concatenate([simulate(rng, subjects, targets, reps, a, **kw) for a in ACTIONS]))
     if use_cache:
-        np.savez(path, **{f"{s}_{k}": getattr(r, k) for s, r in zip(("train", "test"), out)
+        write_npz(path, **{f"{s}_{k}": getattr(r, k) for s, r in zip(("train", "test"), out)
                           for k in ("markers", "lengths", "action", "target")})
     return tuple(out)
 
