@@ -16,11 +16,6 @@ from phmm_jax.emissions import gaussian_log_density
 from phmm_jax.model import HMM
 
 
-def emission_log_densities(hmm: HMM, X):
-    """(B, T, N) log-densities of every frame under every state's Gaussian."""
-    return gaussian_log_density(X, hmm.means, hmm.covariances)
-
-
 def emission_columns(hmm: HMM, X):
     """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`."""
     return jnp.moveaxis(gaussian_log_density(jnp.swapaxes(X, 0, 1), hmm.means, hmm.covariances), -1, 1)
@@ -32,12 +27,6 @@ def batch_log_likelihood(hmm: HMM, X, lengths):
     return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
 
 
-@jax.jit
-def batch_column_messages(hmm: HMM, X, lengths) -> inference.Messages:
-    """Messages in the column layout (T, N, P, B)."""
-    return inference.forward_backward(inference.chain(hmm), emission_columns(hmm, X), lengths)
-
-
 def _batch_first(a):
     """(T, ..., B) -> (B, T, ...)."""
     return jnp.moveaxis(a, -1, 0)
@@ -45,7 +34,7 @@ def _batch_first(a):
 
 @jax.jit
 def batch_messages(hmm: HMM, X, lengths) -> inference.Messages:
-    log_alpha, log_beta, loglik = batch_column_messages(hmm, X, lengths)
+    log_alpha, log_beta, loglik = inference.forward_backward(inference.chain(hmm), emission_columns(hmm, X), lengths)
     return inference.Messages(_batch_first(log_alpha), _batch_first(log_beta), loglik)
 
 

@@ -94,17 +94,12 @@ def interpolate(phmm: PHMM, phi) -> HMM:
     return HMM(means, covariances, log_cont, log_exit, config)
 
 
-def _loglik(phmm: PHMM, X, lengths, phi):
-    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d)."""
+@jax.jit
+def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
+    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d). Differentiable in φ."""
     hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)  # arrays with a leading B axis
     log_b = jax.vmap(gaussian_log_density)(X, hmms.means, hmms.covariances)  # (B, T, N)
     return inference.forward_loglik(inference.stacked_chain(hmms), inference.to_columns(log_b), lengths)
-
-
-@jax.jit
-def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
-    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D) and φ (B, d). Differentiable in φ."""
-    return _loglik(phmm, X, lengths, phi)
 
 
 def _check_phi(phmm: PHMM, phi, batch: int):
@@ -188,12 +183,15 @@ def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_step
     depends on φ_b only and Adam's update is elementwise, so every sequence follows its own ascent."""
     lattice = _start_lattice(phmm.n_params, lattice_points)  # (M, d)
     batch = X.shape[0]
-    scores = jax.vmap(lambda phi: _loglik(coarse, X, lengths, jnp.broadcast_to(phi, (batch, phi.shape[0]))))(lattice)
+    def at_point(phi):  # every sequence scored at the same lattice point
+        return batch_phmm_log_likelihood(coarse, X, lengths, jnp.broadcast_to(phi, (batch, phi.shape[0])))
+
+    scores = jax.vmap(at_point)(lattice)  # (M, B)
     schedule = optax.cosine_decay_schedule(learning_rate, n_steps)
     opt = optax.adam(schedule)
 
     def ascend(model, phi0):
-        objective = lambda phi: -jnp.sum(_loglik(model, X, lengths, phi) / lengths)  # noqa: E731
+        objective = lambda phi: -jnp.sum(batch_phmm_log_likelihood(model, X, lengths, phi) / lengths)  # noqa: E731
 
         def step(carry, _):
             phi, state = carry
@@ -208,7 +206,7 @@ def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_step
     phi = ascend(coarse, lattice[jnp.argmax(scores, axis=0)])
     if refine:
         phi = ascend(phmm, phi)
-    return phi, _loglik(phmm, X, lengths, phi)
+    return phi, batch_phmm_log_likelihood(phmm, X, lengths, phi)
 
 
 def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 40, learning_rate: float = 0.05,

@@ -7,6 +7,7 @@ from scipy.special import logsumexp
 
 import phmm_jax as P
 from phmm_jax import api, inference
+from phmm_jax.emissions import gaussian_log_density
 from phmm_jax.model import transitions_from_durations
 from tests.phmm_reference import brute_force, dense_forward_backward, emission_table
 
@@ -160,7 +161,7 @@ def test_emissions_match_scipy():
     rng = np.random.default_rng(6)
     hmm = random_hmm(STRUCTURES[0], rng, dim=4)
     x = rng.normal(size=(5, 4))
-    ours = np.asarray(api.emission_log_densities(hmm, jnp.asarray(x)))
+    ours = np.asarray(gaussian_log_density(jnp.asarray(x), hmm.means, hmm.covariances))
     np.testing.assert_allclose(ours, emission_table(np.asarray(hmm.means), np.asarray(hmm.covariances), x), rtol=1e-10)
 
 
