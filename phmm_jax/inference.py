@@ -49,30 +49,37 @@ def logaddexp(a, b):
     return jnp.where(positive, jnp.log(jnp.where(positive, total, 1.0)) + peak, NEG_INF)
 
 
-@partial(jax.tree_util.register_dataclass, data_fields=["log_cont", "log_exit"], meta_fields=["self_loop"])
+@partial(jax.tree_util.register_dataclass, data_fields=["log_cont", "log_exit"],
+         meta_fields=["self_loop", "first_exit"])
 @dataclasses.dataclass(frozen=True)
 class Chain:
     """The pseudo-state chains of a batch of HMMs in column layout.
 
     log_cont, log_exit: (N, P, B) continue / exit log-probabilities (see `phmm_jax.model`); B = 1
     broadcasts one HMM over the batch. self_loop: the last pseudo-state continues to itself
-    (classical HMM); with explicit durations it must exit.
+    (classical HMM); with explicit durations it must exit. first_exit: pseudo-states j < first_exit
+    cannot exit (their log_exit is -inf, `model.allowed_transitions`), so the exit sums skip them:
+    for durations 4-6 that halves the exponentials of a forward step.
     """
 
     log_cont: jnp.ndarray
     log_exit: jnp.ndarray
     self_loop: bool
+    first_exit: int = 0
 
 
 def chain(hmm: HMM) -> Chain:
     """The chain of one HMM, shared by every sequence of the batch."""
-    return Chain(hmm.log_cont[..., None], hmm.log_exit[..., None], not hmm.config.explicit_duration)
+    config = hmm.config
+    return Chain(hmm.log_cont[..., None], hmm.log_exit[..., None], not config.explicit_duration,
+                 config.min_duration - 1)
 
 
 def stacked_chain(hmms: HMM) -> Chain:
     """The chains of B HMMs whose arrays carry a leading batch axis (e.g. one per parameter φ_b)."""
+    config = hmms.config
     return Chain(jnp.moveaxis(hmms.log_cont, 0, -1), jnp.moveaxis(hmms.log_exit, 0, -1),
-                 not hmms.config.explicit_duration)
+                 not config.explicit_duration, config.min_duration - 1)
 
 
 def to_columns(per_sequence):
@@ -95,7 +102,7 @@ def initial_message(c: Chain, log_b0):
 def predict(c: Chain, log_alpha):
     """One step of the structured transition: log Σ_prev alpha(prev) a(prev -> ·) (N, P, B)."""
     via_cont = log_alpha + c.log_cont
-    leaving = logsumexp(log_alpha + c.log_exit, axis=1)  # (N, B)
+    leaving = logsumexp(log_alpha[:, c.first_exit:] + c.log_exit[:, c.first_exit:], axis=1)  # (N, B)
     entering = jnp.concatenate([_neg_inf_like(leaving, 0), leaving[:-1]], axis=0)
     # Shift, then overwrite column 0: concatenating `entering` as column 0 instead made XLA:CPU's
     # step 2.5x slower.
@@ -110,7 +117,9 @@ def retro(c: Chain, log_beta_next, log_b_next):
     ahead = log_beta_next + log_b_next[:, None]
     cont_target = jnp.concatenate([ahead[:, 1:], ahead[:, -1:]], axis=1)  # last: the self-loop
     enter_next = jnp.concatenate([ahead[1:, :1], _neg_inf_like(ahead[:, :1], 0)], axis=0)
-    return logaddexp(c.log_cont + cont_target, c.log_exit + enter_next)
+    staying = c.log_cont + cont_target
+    fe = c.first_exit
+    return staying.at[:, fe:].set(logaddexp(staying[:, fe:], c.log_exit[:, fe:] + enter_next))
 
 
 def end_message(c: Chain):
@@ -126,20 +135,22 @@ def _frames(log_b):
 def forward_loglik(c: Chain, log_b, lengths, offsets=None):
     """log p(x_{0:L}, path ends by exiting the last state) (B,) from log_b (T, N, B). Differentiable.
 
-    offsets: None, or (T, N, P, B) added to the forward messages (zeros: its gradient is the
-    pseudo-state posteriors, see `pseudo_state_posteriors`).
+    offsets: None, or (T, B, N, P) added to the forward messages (zeros: its gradient is the
+    pseudo-state posteriors, see `posteriors`). Batch-major per frame, so that the gradient comes
+    out in the layout the public API returns: each step transposes a cache-sized slice, where
+    transposing the whole (T, N, P, B) result afterwards cost 3-5 ms on the benchmark workload.
     """
 
     def step(log_alpha, inputs):
         t, log_b_t, offset_t = inputs
         updated = predict(c, log_alpha) + log_b_t[:, None]
         if offset_t is not None:
-            updated = updated + offset_t
+            updated = updated + jnp.transpose(offset_t, (1, 2, 0))
         return jnp.where(t < lengths, updated, log_alpha), None
 
     first = initial_message(c, log_b[0])
     if offsets is not None:
-        first = first + offsets[0]
+        first = first + jnp.transpose(offsets[0], (1, 2, 0))
     rest = None if offsets is None else offsets[1:]
     log_alpha, _ = jax.lax.scan(step, first, (*_frames(log_b), rest))
     return logsumexp(log_alpha[-1] + c.log_exit[-1], axis=0)
@@ -171,23 +182,34 @@ def expected_statistics(c: Chain, log_b, lengths, weights) -> Statistics:
     """`Statistics` by reverse-mode differentiation of Σ_b w_b log p(x_b) (see above)."""
 
     def weighted_total(log_b, log_cont, log_exit):
-        loglik = forward_loglik(Chain(log_cont, log_exit, c.self_loop), log_b, lengths)
+        loglik = forward_loglik(dataclasses.replace(c, log_cont=log_cont, log_exit=log_exit), log_b, lengths)
         return jnp.sum(weights * loglik), loglik
 
     grads, loglik = jax.grad(weighted_total, argnums=(0, 1, 2), has_aux=True)(log_b, c.log_cont, c.log_exit)
     return Statistics(loglik, *grads)
 
 
-def pseudo_state_posteriors(c: Chain, log_b, lengths):
-    """(P(z_t = (i, j) | x) (T, N, P, B), log-likelihoods (B,)) by differentiating the forward pass
-    with respect to zero offsets on its messages."""
+class Posteriors(NamedTuple):
+    """state: (T, N, B) P(state i at t | x). pseudo: (T, B, N, P) P(pseudo-state (i, j) at t | x).
+    loglik: (B,). Zero on padded frames."""
 
-    def total(offsets):
+    state: jnp.ndarray
+    pseudo: jnp.ndarray
+    loglik: jnp.ndarray
+
+
+def posteriors(c: Chain, log_b, lengths) -> Posteriors:
+    """State and pseudo-state posteriors by differentiating the forward pass: with respect to log_b
+    (states) and to zero offsets on its messages (pseudo-states)."""
+
+    def total(log_b, offsets):
         loglik = forward_loglik(c, log_b, lengths, offsets)
         return jnp.sum(loglik), loglik
 
-    offsets = jnp.zeros(log_b.shape[:2] + c.log_cont.shape[1:2] + log_b.shape[2:], log_b.dtype)
-    return jax.grad(total, has_aux=True)(offsets)
+    n_frames, n_states, batch = log_b.shape
+    offsets = jnp.zeros((n_frames, batch, n_states, c.log_cont.shape[1]), log_b.dtype)
+    (state, pseudo), loglik = jax.grad(total, argnums=(0, 1), has_aux=True)(log_b, offsets)
+    return Posteriors(state, pseudo, loglik)
 
 
 class Messages(NamedTuple):

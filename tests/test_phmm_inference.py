@@ -117,9 +117,11 @@ def test_gradient_posteriors_and_counts_match_forward_backward(cfg):
     log_b = api.emission_columns(hmm, jnp.asarray(X))  # (T, N, B)
     chain = inference.chain(hmm)
     stats = inference.expected_statistics(chain, log_b, jnp.asarray(lengths), jnp.asarray(weights))
-    pseudo, _ = inference.pseudo_state_posteriors(chain, log_b, jnp.asarray(lengths))
+    state, pseudo, _ = inference.posteriors(chain, log_b, jnp.asarray(lengths))  # (T, N, B), (T, B, N, P)
+    pseudo = jnp.transpose(pseudo, (0, 2, 3, 1))
     messages = inference.forward_backward(chain, log_b, jnp.asarray(lengths))
     np.testing.assert_allclose(pseudo, inference.pseudo_posteriors(messages), atol=1e-10)
+    np.testing.assert_allclose(state, pseudo.sum(2), atol=1e-10)
     n, p = cfg.n_states, cfg.n_pseudo
     dense = P.expand_to_dense(hmm)
     cont_ref, exit_ref = np.zeros((n, p)), np.zeros((n, p))

@@ -7,10 +7,11 @@ N = 20 states with durations 4-6 (120 pseudo-states), full covariances, fitted b
 reaching movements. Every side scores the same model (`expand_to_dense` of ours for the anchors) on
 the same sequences, timed from the (B, T, D) frames to the result, median of repeats after warm-up:
 
-* ours: Gaussian emissions for the 20 states (one GEMM) + structured forward (log-likelihood) or
-  forward-backward (pseudo-state and state posteriors), end constraint included.
+* ours: Gaussian emissions for the 20 states (one GEMM per frame, batch-last) + structured forward
+  (log-likelihood) or its gradient (pseudo-state and state posteriors), end constraint included.
 * dynamax `hmm_filter` / `hmm_smoother` (vmapped, jitted) on the 120-state dense matrix, fed with
-  emission log-likelihoods computed by the same GEMM code as ours and gathered to 120 pseudo-states
+  emission log-likelihoods computed by our GEMM emission code in the anchor's own (B, T, K) layout
+  (`gaussian_log_density`, one GEMM per block of 512 frames) and gathered to 120 pseudo-states
   (the strong anchor; posteriors as `hmm_filter` x `hmm_backward_filter`, normalised, which is
   `hmm_smoother` without its transition probabilities).
 * dynamax `GaussianHMM.marginal_log_prob` / `smoother` (vmapped, jitted): what a dynamax user writes.
