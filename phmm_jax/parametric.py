@@ -23,7 +23,7 @@ from lfd_common import as_array, check_int, check_real
 from phmm_jax import inference
 from phmm_jax.data import check_feasible, pad_sequences, stack_groups, to_device
 from phmm_jax.em import em_step, initial_hmm, run_em
-from phmm_jax.emissions import gaussian_log_density
+from phmm_jax.emissions import stacked_log_density_columns
 from phmm_jax.model import HMM, HMMConfig, duration_log_probs, safe_log, transitions_from_durations
 
 
@@ -75,22 +75,30 @@ def cell_weights(grid_shape, phi):
     return corners, weights
 
 
+def corner_weights(grid_shape, phi):
+    """(C,) the d-linear weight of every grid corner for φ (d,): `cell_weights` scattered onto the
+    whole grid (zero outside φ's cell). Interpolating with all C corners is a product with the stacked
+    local models, where gathering each φ's 2^d corners copied (B, 2^d, N, D, D) covariances and took a
+    sixth of a recognition step."""
+    corners, weights = cell_weights(grid_shape, phi)
+    return jnp.zeros(int(np.prod(grid_shape)), weights.dtype).at[corners].add(weights)
+
+
 def interpolate(phmm: PHMM, phi) -> HMM:
     """The HMM λ^φ: d-linear interpolation of the local HMMs (means extrapolate; covariances and
     duration distributions use φ clipped to [0, 1]^d)."""
-    corners, weights = cell_weights(phmm.grid_shape, phi)
-    corners_in, weights_in = cell_weights(phmm.grid_shape, jnp.clip(phi, 0.0, 1.0))
+    weights = corner_weights(phmm.grid_shape, phi)
+    weights_in = corner_weights(phmm.grid_shape, jnp.clip(phi, 0.0, 1.0))
     local = phmm.local
-    means = jnp.einsum("c,cnd->nd", weights, local.means[corners])
-    covariances = jnp.einsum("c,cnde->nde", weights_in, local.covariances[corners_in])
-    p = jnp.exp(jax.vmap(duration_log_probs)(jax.tree_util.tree_map(lambda a: a[corners_in], local)))
+    means = jnp.tensordot(weights, local.means, axes=1)
+    covariances = jnp.tensordot(weights_in, local.covariances, axes=1)
     config = local.config
     if config.explicit_duration:
-        log_p = safe_log(jnp.einsum("c,cnp->np", weights_in, p))
-        log_cont, log_exit = transitions_from_durations(config, log_p)
+        p = jnp.exp(jax.vmap(duration_log_probs)(local))  # (C, N, P)
+        log_cont, log_exit = transitions_from_durations(config, safe_log(jnp.tensordot(weights_in, p, axes=1)))
     else:  # self-loop probabilities interpolate directly
-        log_cont = safe_log(jnp.einsum("c,cnp->np", weights_in, jnp.exp(local.log_cont[corners_in])))
-        log_exit = safe_log(jnp.einsum("c,cnp->np", weights_in, jnp.exp(local.log_exit[corners_in])))
+        log_cont = safe_log(jnp.tensordot(weights_in, jnp.exp(local.log_cont), axes=1))
+        log_exit = safe_log(jnp.tensordot(weights_in, jnp.exp(local.log_exit), axes=1))
     return HMM(means, covariances, log_cont, log_exit, config)
 
 
@@ -98,8 +106,8 @@ def interpolate(phmm: PHMM, phi) -> HMM:
 def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
     """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d). Differentiable in φ."""
     hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)  # arrays with a leading B axis
-    log_b = jax.vmap(gaussian_log_density)(X, hmms.means, hmms.covariances)  # (B, T, N)
-    return inference.forward_loglik(inference.stacked_chain(hmms), inference.to_columns(log_b), lengths)
+    log_b = stacked_log_density_columns(X, hmms.means, hmms.covariances)  # (T, N, B)
+    return inference.forward_loglik(inference.stacked_chain(hmms), log_b, lengths)
 
 
 def _check_phi(phmm: PHMM, phi, batch: int):

@@ -7,7 +7,7 @@ from scipy.special import logsumexp
 
 import phmm_jax as P
 from phmm_jax import api, inference
-from phmm_jax.emissions import gaussian_log_density
+from phmm_jax.emissions import gaussian_log_density, gaussian_log_density_columns, stacked_log_density_columns
 from phmm_jax.model import transitions_from_durations
 from tests.phmm_reference import brute_force, dense_forward_backward, emission_table
 
@@ -160,11 +160,42 @@ def test_padding_leaks_into_neither_values_nor_gradients():
 
 
 def test_emissions_match_scipy():
+    """All three layouts: frames (T, D), columns (T, D, B) and one model per sequence (B models)."""
     rng = np.random.default_rng(6)
-    hmm = random_hmm(STRUCTURES[0], rng, dim=4)
-    x = rng.normal(size=(5, 4))
-    ours = np.asarray(gaussian_log_density(jnp.asarray(x), hmm.means, hmm.covariances))
-    np.testing.assert_allclose(ours, emission_table(np.asarray(hmm.means), np.asarray(hmm.covariances), x), rtol=1e-10)
+    hmms = [random_hmm(STRUCTURES[0], rng, dim=4) for _ in range(3)]
+    X = rng.normal(size=(3, 5, 4))  # (B, T, D)
+    tables = np.stack([emission_table(np.asarray(h.means), np.asarray(h.covariances), x) for h, x in zip(hmms, X)])
+    hmm = hmms[0]
+    ours = np.asarray(gaussian_log_density(jnp.asarray(X[0]), hmm.means, hmm.covariances))
+    np.testing.assert_allclose(ours, tables[0], rtol=1e-10)
+    shared = emission_table(np.asarray(hmm.means), np.asarray(hmm.covariances), X.reshape(-1, 4)).reshape(3, 5, -1)
+    columns = gaussian_log_density_columns(jnp.asarray(np.transpose(X, (1, 2, 0))), hmm.means, hmm.covariances)
+    np.testing.assert_allclose(np.transpose(columns, (2, 0, 1)), shared, rtol=1e-10)
+    stacked = stacked_log_density_columns(jnp.asarray(X), jnp.stack([h.means for h in hmms]),
+                                          jnp.stack([h.covariances for h in hmms]))
+    np.testing.assert_allclose(np.transpose(stacked, (2, 0, 1)), tables, rtol=1e-10)
+
+
+def test_emission_gradients_match_finite_differences():
+    """The closed-form gradient of `whitening` (custom VJP) against central differences, along random
+    directions of the means and symmetric directions of the covariances."""
+    rng = np.random.default_rng(8)
+    hmm = random_hmm(STRUCTURES[0], rng, dim=3)
+    x = jnp.asarray(rng.normal(size=(6, 3)))
+    weights = jnp.asarray(rng.normal(size=(6, hmm.n_states)))
+
+    def objective(means, covariances):
+        return jnp.sum(weights * gaussian_log_density(x, means, covariances))
+
+    g_means, g_cov = jax.grad(objective, argnums=(0, 1))(hmm.means, hmm.covariances)
+    eps = 1e-6
+    for _ in range(3):
+        d_means = rng.normal(size=hmm.means.shape)
+        d_cov = rng.normal(size=hmm.covariances.shape)
+        d_cov = d_cov + np.swapaxes(d_cov, -1, -2)
+        central = (objective(hmm.means + eps * d_means, hmm.covariances + eps * d_cov)
+                   - objective(hmm.means - eps * d_means, hmm.covariances - eps * d_cov)) / (2 * eps)
+        np.testing.assert_allclose(np.sum(g_means * d_means) + np.sum(g_cov * d_cov), central, rtol=1e-6)
 
 
 def test_bad_input_is_named():
