@@ -21,7 +21,7 @@ Training
 
 Parametric HMMs
     phmm_log_likelihood(phmm, X, phi, lengths) -> (B,), differentiable in phi
-    recognize(phmms, X, lengths, epsilon=0.1)  -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
+    recognize(phmms, X, lengths, epsilon=0.1, n_steps=20, lattice_points=5)  -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
     synthesize(phmm, phi, length=100)          -> (length, D) mean movement
     target_to_phi(corner_targets, targets)     -> (M, d) interpolation parameters of target points
 

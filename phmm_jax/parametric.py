@@ -21,6 +21,7 @@ import optax
 
 from lfd_common import as_array, check_int, check_real
 from phmm_jax import inference
+from phmm_jax.api import emission_columns
 from phmm_jax.data import check_feasible, pad_sequences, stack_groups, to_device
 from phmm_jax.em import em_step, initial_hmm, run_em
 from phmm_jax.emissions import stacked_log_density_columns
@@ -190,9 +191,10 @@ def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_step
     The batch is optimised as one objective, the sum of per-frame log-likelihoods: sequence b's term
     depends on φ_b only and Adam's update is elementwise, so every sequence follows its own ascent."""
     lattice = _start_lattice(phmm.n_params, lattice_points)  # (M, d)
-    batch = X.shape[0]
-    def at_point(phi):  # every sequence scored at the same lattice point
-        return batch_phmm_log_likelihood(coarse, X, lengths, jnp.broadcast_to(phi, (batch, phi.shape[0])))
+
+    def at_point(phi):  # every sequence scored under one interpolated model (no per-sequence models)
+        hmm = interpolate(coarse, phi)
+        return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
 
     scores = jax.vmap(at_point)(lattice)  # (M, B)
     schedule = optax.cosine_decay_schedule(learning_rate, n_steps)
@@ -217,8 +219,8 @@ def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_step
     return phi, batch_phmm_log_likelihood(phmm, X, lengths, phi)
 
 
-def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 40, learning_rate: float = 0.05,
-              lattice_points: int = 3) -> Recognition:
+def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 20, learning_rate: float = 0.05,
+              lattice_points: int = 5) -> Recognition:
     """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
 
     For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ) by projected gradient ascent
@@ -226,6 +228,11 @@ def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 40, l
     a `lattice_points`^d lattice, then the full grid from that estimate. The label is the k with
     the highest log-likelihood at its φ_k. Batched over sequences with vmap.
     phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
+    Defaults: a lattice point scores all sequences under one model (cheap), a gradient step needs one
+    model per sequence (dear), so the start is a fine 5^d lattice and the ascent 20 steps. On the
+    benchmark's 70 sequences (`experiments.bench.bench_hmm`) that came as close to a 300-step search
+    (log-likelihood gap median 4.5, 90th percentile 20, max 81 nats) as 40 steps from a 3^d lattice
+    (2.8, 30, 320), in 60% of the time.
     """
     phmms = [phmms] if isinstance(phmms, PHMM) else list(phmms)
     if not phmms:
