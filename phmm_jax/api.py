@@ -18,7 +18,7 @@ from phmm_jax.model import HMM
 
 def emission_columns(hmm: HMM, X):
     """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`."""
-    return gaussian_log_density_columns(jnp.transpose(X, (1, 2, 0)), hmm.means, hmm.covariances)
+    return gaussian_log_density_columns(X, hmm.means, hmm.covariances)
 
 
 @jax.jit

@@ -169,7 +169,7 @@ def test_emissions_match_scipy():
     ours = np.asarray(gaussian_log_density(jnp.asarray(X[0]), hmm.means, hmm.covariances))
     np.testing.assert_allclose(ours, tables[0], rtol=1e-10)
     shared = emission_table(np.asarray(hmm.means), np.asarray(hmm.covariances), X.reshape(-1, 4)).reshape(3, 5, -1)
-    columns = gaussian_log_density_columns(jnp.asarray(np.transpose(X, (1, 2, 0))), hmm.means, hmm.covariances)
+    columns = gaussian_log_density_columns(jnp.asarray(X), hmm.means, hmm.covariances)
     np.testing.assert_allclose(np.transpose(columns, (2, 0, 1)), shared, rtol=1e-10)
     stacked = stacked_log_density_columns(jnp.asarray(X), jnp.stack([h.means for h in hmms]),
                                           jnp.stack([h.covariances for h in hmms]))
