@@ -13,8 +13,12 @@ between control steps, and returns `GraspOutcomes`. Backends:
   `body_gravcomp`), `lax.scan` over control steps with the controller inside the scan, `fori_loop`
   over the 10 physics substeps. Runs on any JAX device and is differentiable. One compiled program
   per hand and batch size (`_mjx_chunk`: every object is in each hand's scene, so all grasps share
-  it); on a 2-core CPU it takes about 15 s to trace and 70 s to compile, and a step of 6 worlds about
-  20 ms.
+  it; its inputs are committed to the device so that the second call does not compile it again); on
+  the shared 2-core CPU it takes about 10 s to trace and 50-55 s to compile, and a chunk of 20 control
+  steps of 6 worlds 3.5-7 s. Each physics step is `sim.rollout.mjx_step`, whose LAPACK calls cannot
+  deadlock XLA:CPU's thread pool (`mjx.step`'s can: README "Known problems"). MJX keeps the
+  `robot_hands.MJX_MAX_CONTACTS` deepest candidate contacts per world; a rollout in which that many
+  penetrate at once raises an error.
 * `mjx-warp`: the same scan with `impl="warp"` (NVIDIA GPU, `warp-lang` and `mujoco-warp` installed).
   `naconmax` (contacts across all worlds) is sized from the batch; an overflow raises an error rather
   than silently dropping contacts.
@@ -41,7 +45,9 @@ from lfd_common import as_array, check_choice, check_int
 from sim.grasp_objects import GRASP_CLASSES
 from sim.grasp_strategy import (CONTROL_DT_S, DONE, ControllerState, TrialParams, controller_step, initial_state,
                                 n_control_steps)
-from sim.robot_hands import (SceneLayout, TIMESTEP_S, grasp_model, hand_joint_qpos, hand_spec, parked_position)
+from sim.robot_hands import (MJX_MAX_CONTACTS, SceneLayout, TIMESTEP_S, grasp_model, hand_joint_qpos, hand_spec,
+                              parked_position)
+from sim.rollout import mjx_step
 
 BACKENDS: tuple[str, ...] = ("auto", "native", "mjx-jax", "mjx-warp")
 SUBSTEPS = int(round(CONTROL_DT_S / TIMESTEP_S))
@@ -231,13 +237,13 @@ def first_readings(n_worlds: int, model: mujoco.MjModel) -> np.ndarray:
 def _mjx_chunk(hand: str, impl: str):
     """The jitted chunk of the MJX backends, the only program they compile per hand and batch size.
 
-    chunk(mjx model, gravcomp (B, nbody), data, sensors, state, params) -> (data, sensors, state) after
-    `CHUNK` control steps: a `lax.scan` over control steps (controller inside), each a `fori_loop` over
-    the `SUBSTEPS` physics steps of one vmapped `mjx.step` (sensors (B, S): the controller's input,
-    touch at its peak over the substeps, `peak_touch`). The horizon runs as up to
-    n_control_steps() / CHUNK calls of this one program, stopping early once every trial is done:
-    XLA:CPU (jaxlib 0.10) hangs executing this scan at the full horizon's length (all threads idle, the
-    result never ready), while 20-step scans run.
+    chunk(mjx model, gravcomp (B, nbody), data, sensors, state, params) -> (data, sensors, state,
+    deepest) after `CHUNK` control steps: a `lax.scan` over control steps (controller inside), each a
+    `fori_loop` over the `SUBSTEPS` physics steps of one vmapped step (`sim.rollout.mjx_step` on
+    MJX-JAX, whose LAPACK calls cannot deadlock XLA:CPU; `mjx.step` on Warp). sensors (B, S): the
+    controller's input, touch at its peak over the substeps (`peak_touch`); deepest (B,) int: the most
+    penetrating contacts a world had at once (`_penetrating`). The horizon runs as up to
+    n_control_steps() / CHUNK calls of this one program, stopping early once every trial is done.
     """
     _, layout = _scene(hand)
     control = functools.partial(controller_step, layout=layout)
@@ -245,25 +251,36 @@ def _mjx_chunk(hand: str, impl: str):
     def chunk(mjx_model, gravcomp, data, sensors, state, params):
         axes = jax.tree.map(lambda _: None, mjx_model).tree_replace({"body_gravcomp": 0})
         models = mjx_model.tree_replace({"body_gravcomp": gravcomp})
-        step = jax.vmap(mjx.step, in_axes=(axes, 0))
+        step = jax.vmap(mjx_step if impl == "jax" else mjx.step, in_axes=(axes, 0))
 
         def substep(_, carry):
-            data, peak = carry
+            data, peak, deepest = carry
             data = step(models, data)
-            return data, jnp.maximum(peak, data.sensordata[:, layout.peak_sensors])
+            return (data, jnp.maximum(peak, data.sensordata[:, layout.peak_sensors]),
+                    jnp.maximum(deepest, _penetrating(data, impl)))
 
         def control_step(carry, _):
-            data, sensors, state = carry
+            data, sensors, state, deepest = carry
             state, ctrl = control(state, sensors, params)
             data = data.replace(ctrl=ctrl)
             peak = jnp.zeros((data.sensordata.shape[0], len(layout.peak_sensors)), data.sensordata.dtype)
-            data, peak = jax.lax.fori_loop(0, SUBSTEPS, substep, (data, peak))
-            return (data, peak_touch(data.sensordata, peak, layout), state), None
+            data, peak, deepest = jax.lax.fori_loop(0, SUBSTEPS, substep, (data, peak, deepest))
+            return (data, peak_touch(data.sensordata, peak, layout), state, deepest), None
 
-        (data, sensors, state), _ = jax.lax.scan(control_step, (data, sensors, state), None, length=CHUNK)
-        return data, sensors, state
+        deepest = jnp.zeros(sensors.shape[0], jnp.int32)
+        carry, _ = jax.lax.scan(control_step, (data, sensors, state, deepest), None, length=CHUNK)
+        return carry
 
     return jax.jit(chunk)
+
+
+def _penetrating(data, impl: str) -> jax.Array:
+    """(B,) int: contacts with negative distance per world on MJX-JAX (zeros on Warp, which counts
+    contacts itself). MJX-JAX keeps the `MJX_MAX_CONTACTS` deepest candidate contacts of a world; when
+    that many penetrate at once, a deeper one may have been dropped."""
+    if impl != "jax":
+        return jnp.zeros(data.qpos.shape[0], jnp.int32)
+    return jnp.sum(data._impl.contact.dist < 0, axis=-1).astype(jnp.int32)
 
 
 def _contact_count(data) -> jax.Array:
@@ -291,13 +308,21 @@ def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl:
     data = data.replace(qpos=qpos)
     sensors = jnp.asarray(first_readings(b, model), jnp.float32)
     state = initial_state(jparams, layout.n_links)
-    chunk = _mjx_chunk(hand, impl)
+    # committed to the device like the chunk's outputs, so the second call does not compile again for
+    # inputs that differ only in being uncommitted (about a minute on 2 cores)
+    mjx_model, grav, data, sensors, state, jparams = jax.device_put(
+        (mjx_model, grav, data, sensors, state, jparams), jax.devices()[0])
+    chunk, deepest = _mjx_chunk(hand, impl), 0
     for _ in range(n_control_steps() // CHUNK):  # chunks of one compiled scan (see `_mjx_chunk`)
-        data, sensors, state = chunk(mjx_model, grav, data, sensors, state, jparams)
+        data, sensors, state, chunk_deepest = chunk(mjx_model, grav, data, sensors, state, jparams)
+        deepest = max(deepest, int(np.max(chunk_deepest)))
         if np.all(np.asarray(state.phase) == DONE):
             break
     qpos_end, nacon = data.qpos, _contact_count(data)
     if impl == "warp" and int(nacon) >= CONTACTS_PER_WORLD * b:
         raise RuntimeError(f"mjx-warp: contact buffer full ({int(nacon)} contacts for {b} worlds); contacts "
                            "were dropped. Raise CONTACTS_PER_WORLD.")
+    if deepest >= MJX_MAX_CONTACTS:
+        raise RuntimeError(f"mjx-jax: {deepest} contacts penetrated at once in one world, the most MJX keeps "
+                           "(robot_hands.MJX_MAX_CONTACTS); deeper ones may have been dropped. Raise it.")
     return _outcomes(state, np.asarray(qpos_end, np.float64), layout, object_start, params.obj)

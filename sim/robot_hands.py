@@ -54,6 +54,13 @@ _HAND_BITS = 'contype="2" conaffinity="0" friction="1.5 0.01 0.001"'
 _OBJECT_BITS = 'contype="4" conaffinity="2"'
 _TABLE_BITS = 'contype="8" conaffinity="6"'
 _PARK_X_M = 3.0  # parked objects float at x = 3 + k metres, z = 1 m
+# MJX-JAX computes every candidate contact of every world, touching or not (94 for the Karlsruhe hand,
+# 66 for the Barrett), and its Newton solver with elliptic cones builds a dense (4 ncon)^2 matrix per
+# iteration, one block update per contact: keeping the 32 deepest halved the Karlsruhe program's
+# trace + compile + first chunk (112 s -> 61 s on the shared 2-core machine). MuJoCo finds at most
+# 10 contacts at once in the whole `paper` sweep (either hand); `grasp_rollout` raises if 32 ever
+# penetrate at once in an MJX world.
+MJX_MAX_CONTACTS = 32
 
 
 @dataclass(frozen=True)
@@ -290,8 +297,10 @@ def grasp_scene_xml(hand: str) -> str:
           iterations="{SOLVER_ITERATIONS}" ls_iterations="{LS_ITERATIONS}"/>
   <custom>
     <!-- MJX-JAX only (MuJoCo ignores these): collide each hand link with the nearest object of each
-         geom type only. The parked objects are metres away, so no contact is lost. -->
+         geom type only (the parked objects are metres away, so no contact is lost), and keep the
+         MJX_MAX_CONTACTS deepest of the candidate contacts (see MJX_MAX_CONTACTS). -->
     <numeric name="max_geom_pairs" data="{len(spec.link_names)}"/>
+    <numeric name="max_contact_points" data="{MJX_MAX_CONTACTS}"/>
   </custom>
   <visual><global offwidth="640" offheight="480"/></visual>
   <default><geom solref="0.004 1" solimp="0.95 0.99 0.001" friction="1 0.01 0.001"/></default>

@@ -13,6 +13,7 @@ from sim.grasp_strategy import (ALPHA0, APPROACH, CLOSE, CONTROL_DT_S, HOLD_S, R
 from sim.robot_hands import grasp_model
 from sim.virtual_fingers import (VirtualFingers, entities_from_links, group_virtual_fingers,
                                  match_virtual_fingers)
+from tests.grasp_equivalence import native_run
 
 
 def _plan(hand, grasps, tactile=True, offsets=None, hold_s=HOLD_S):
@@ -159,59 +160,21 @@ def test_bad_input():
         rollout_grasps("barrett", params, np.zeros((2, 3)), backend="native")
 
 
-# The equivalence test's trials: one per grasp, the 1 s hold shortened to this on both backends (MJX-JAX
-# steps cost about 1 ms per world on 2 cores; the lift itself is unchanged).
-EQUIVALENCE_HOLD_S = 0.2
-
-
 @pytest.fixture(scope="module", params=["barrett", "karlsruhe"])
 def native_runs(request):
     hand = request.param
-    params, start = _plan(hand, GRASP_CLASSES, hold_s=EQUIVALENCE_HOLD_S)
-    return hand, params, start, rollout_grasps(hand, params, start, backend="native")
+    return (hand, *native_run(hand))
 
 
 def test_every_grasp_touches_and_lifts_on_native(native_runs):
     """Every grasp's object is touched by the hand (every hand-object pair collides and steps), and
-    every grasp but the Barrett's Two-finger Thumb pinch of the 3 cm cube lifts its object 8 cm."""
+    every grasp but the Barrett's Two-finger Thumb pinch of the 3 cm cube lifts its object 8 cm.
+    (The native / MJX-JAX equivalence of these trials: tests/test_grasp_equivalence_*.py.)"""
     hand, _, _, native = native_runs
     touched = (native.contacts[..., 0] > 0).any(-1) | (native.first_link >= 0)
     assert touched.all(), f"objects never touched: {np.array(GRASP_CLASSES)[~touched]}"
     dropped = {(hand, g) for g, lifted in zip(GRASP_CLASSES, native.lifted) if not lifted}
     assert dropped <= {("barrett", 9)}, f"not lifted: {sorted(dropped)}"
-
-
-@pytest.mark.slow_mjx
-def test_native_and_mjx_jax_agree(native_runs):
-    """One trial per grasp (hold shortened to EQUIVALENCE_HOLD_S on both backends): the same outcome
-    (lifted or not, palm touched first or not); every object touched or moved by the hand on MJX too;
-    for objects held on both backends, the same set of touching links up to one link per trial and
-    final object positions within 1 cm.
-
-    MJX (float32; its own capsule-cylinder (SDF) and capsule-box collision routines and solver) and
-    MuJoCo (float64) are not bit-identical, so trajectories drift apart by fractions of a millimetre;
-    a link that ends up grazing the object (within that drift of touching it) can be in contact on one
-    backend only. A grasp that fails on both backends (the Barrett's fingertip pinch of the 3 cm cube:
-    the cube slips out or is pushed away while the fingers close) leaves the object tumbling on the
-    table, and where it stops and which links touched it last depend on that drift, so for such trials
-    only the outcome is compared.
-
-    Opt-in (LFD_SLOW_MJX=1), measured on the 2-core machine: per hand one MJX program, traced in
-    15-17 s and compiled in about 70 s cold, then about 4.5 s per 20-control-step chunk of 6 worlds
-    (Barrett: passes, 2.5 min cold, 45 s warm). The Karlsruhe run does not finish: twice it stopped
-    in XLA:CPU with every thread idle (the batched-LAPACK thread-pool deadlock of README "Known
-    problems"), once it was still running after 15 min."""
-    hand, params, start, native = native_runs
-    mjx_out = rollout_grasps(hand, params, start, backend="mjx-jax")
-    np.testing.assert_array_equal(native.lifted, mjx_out.lifted)
-    np.testing.assert_array_equal(native.palm_first, mjx_out.palm_first)
-    touched = (mjx_out.contacts[..., 0] > 0).any(-1) | (mjx_out.first_link >= 0)
-    moved = np.linalg.norm(mjx_out.object_end - start, axis=-1) > 0.01
-    assert np.all(touched | moved), np.array(GRASP_CLASSES)[~(touched | moved)]
-    held = native.lifted & mjx_out.lifted
-    differ = (native.contacts[held, :, 0] > 0) != (mjx_out.contacts[held, :, 0] > 0)   # (held, links)
-    assert differ.sum(-1).max(initial=0) <= 1, differ
-    np.testing.assert_allclose(native.object_end[held], mjx_out.object_end[held], atol=0.01)
 
 
 def test_experiment_smoke(tmp_path):

@@ -227,3 +227,33 @@ def test_bad_input_is_named():
     out = P.log_likelihood(hmm, [np.zeros((8, 2)), np.zeros((7, 2))])
     np.testing.assert_allclose(out, P.log_likelihood(hmm, padded, lengths=[8, 7]))
 
+
+
+@pytest.mark.parametrize("cfg", [P.HMMConfig(n_states=6, min_duration=2, max_duration=4),
+                                 P.HMMConfig(n_states=6, min_duration=2)])
+def test_emissions_of_unreachable_states_are_skipped_exactly(cfg):
+    """`reachable_states` equals the states the dense transition graph reaches from the start at each
+    frame; scoring only those (a batch large enough for several blocks of frames) leaves the
+    log-likelihoods, posteriors and Viterbi paths exactly as with every state scored. (Without a
+    maximum duration every state is reachable by the later blocks, so all are scored.)"""
+    rng = np.random.default_rng(9)
+    hmm = random_hmm(cfg, rng)
+    n_frames, batch = 20, 200
+    dense = P.expand_to_dense(hmm)
+    step = np.isfinite(dense.log_transition)
+    reached = np.isfinite(dense.log_initial)
+    first, last = P.model.reachable_states(cfg, n_frames)
+    for t in range(n_frames):
+        states = np.unique(dense.state_of[reached])
+        assert (first[t], last[t]) == (states.min(), states.max()) and len(states) == last[t] - first[t] + 1
+        reached = step[reached].any(axis=0)
+    X = jnp.asarray(rng.normal(size=(batch, n_frames, 2)))
+    lengths = jnp.asarray(rng.integers(12, n_frames + 1, size=batch))
+    banded = api.emission_columns(hmm, X)
+    assert np.isneginf(np.asarray(banded)).any() == cfg.explicit_duration
+    full = api.emission_columns(hmm, X, all_states=True)
+    chain = inference.chain(hmm)
+    for skipped, every in [(inference.forward_loglik(chain, banded, lengths), inference.forward_loglik(chain, full, lengths)),
+                           (inference.posteriors(chain, banded, lengths).pseudo, inference.posteriors(chain, full, lengths).pseudo),
+                           (inference.viterbi(chain, banded, lengths)[0], inference.viterbi(chain, full, lengths)[0])]:
+        np.testing.assert_allclose(skipped, every, rtol=1e-12, atol=1e-12)
