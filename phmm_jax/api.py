@@ -13,12 +13,14 @@ import jax.numpy as jnp
 from phmm_jax import inference
 from phmm_jax.data import check_feasible, pad_sequences, to_device
 from phmm_jax.emissions import gaussian_log_density_columns
-from phmm_jax.model import HMM
+from phmm_jax.model import HMM, reachable_states
 
 
-def emission_columns(hmm: HMM, X):
-    """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`."""
-    return gaussian_log_density_columns(X, hmm.means, hmm.covariances)
+def emission_columns(hmm: HMM, X, all_states: bool = False):
+    """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`; -inf for the
+    states no path can be in at that frame (`model.reachable_states`), unless `all_states`."""
+    reachable = None if all_states else reachable_states(hmm.config, X.shape[1])
+    return gaussian_log_density_columns(X, hmm.means, hmm.covariances, reachable)
 
 
 @jax.jit
@@ -34,7 +36,9 @@ def _batch_first(a):
 
 @jax.jit
 def batch_messages(hmm: HMM, X, lengths) -> inference.Messages:
-    log_alpha, log_beta, loglik = inference.forward_backward(inference.chain(hmm), emission_columns(hmm, X), lengths)
+    # All states: log_beta is also defined for states the path cannot have reached.
+    log_b = emission_columns(hmm, X, all_states=True)
+    log_alpha, log_beta, loglik = inference.forward_backward(inference.chain(hmm), log_b, lengths)
     return inference.Messages(_batch_first(log_alpha), _batch_first(log_beta), loglik)
 
 

@@ -129,6 +129,21 @@ def allowed_transitions(config: HMMConfig) -> tuple[np.ndarray, np.ndarray]:
     return may_continue, may_exit
 
 
+def reachable_states(config: HMMConfig, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """(first, last) (T,) int: the states a path can be in at frame t = 0..T-1, from its start.
+
+    Before state i the path spent between `min_duration` and `max_duration` steps in each of the i
+    states, so i <= t // min_duration and, with explicit durations, (i + 1) max_duration >= t + 1.
+    Every other state has forward probability zero at frame t, whatever the data.
+    """
+    t = np.arange(n_frames)
+    last = np.minimum(config.n_states - 1, t // config.min_duration)
+    if not config.explicit_duration:
+        return np.zeros_like(t), last
+    first = np.minimum(last, np.maximum(0, -(-(t + 1) // config.max_duration) - 1))
+    return first, last
+
+
 def transitions_from_counts(config: HMMConfig, cont_counts, exit_counts, previous: HMM | None = None):
     """Maximum-likelihood (log_cont, log_exit) (N, P) from expected counts (N, P).
 
