@@ -13,7 +13,8 @@ the same sequences, timed from the (B, T, D) frames to the result, median of rep
   emission log-likelihoods computed by our GEMM emission code in the anchor's own (B, T, K) layout
   (`gaussian_log_density`, one GEMM per block of 512 frames) and gathered to 120 pseudo-states
   (the strong anchor; posteriors as `hmm_filter` x `hmm_backward_filter`, normalised, which is
-  `hmm_smoother` without its transition probabilities).
+  `hmm_smoother` without its transition probabilities; like ours it returns pseudo-state and state
+  posteriors and the log-likelihoods).
 * dynamax `GaussianHMM.marginal_log_prob` / `smoother` (vmapped, jitted): what a dynamax user writes.
 * hmmlearn `GaussianHMM.score` / `predict_proba` on all sequences in one call with `lengths` (C,
   float64; rows of the end-state pseudo-states are renormalised, since hmmlearn has no end state).
@@ -128,12 +129,15 @@ def main(argv=None) -> dict:
         # computes transition probabilities there; posteriors alone are its filter and backward
         # filter combined exactly as hmm_smoother does.
         def smooth(lb):
-            filtered = hmm_filter(init, trans, lb).filtered_probs
+            posterior = hmm_filter(init, trans, lb)
             _, backward = hmm_backward_filter(trans, lb)
-            probs = filtered * backward
-            return probs / probs.sum(axis=1, keepdims=True)
+            probs = posterior.filtered_probs * backward
+            return probs / probs.sum(axis=1, keepdims=True), posterior.marginal_loglik
 
-        return jax.vmap(smooth)(log_b)
+        # The outputs of ours: pseudo-state and state posteriors (pseudo-states i*P..i*P+P-1 are state
+        # i's) and the log-likelihoods.
+        pseudo, loglik = jax.vmap(smooth)(log_b)
+        return pseudo, pseudo.reshape(*pseudo.shape[:2], hmm.n_states, -1).sum(-1), loglik
 
     dyn_ll = record("dynamax hmm_filter (f32)", *timed(lambda: dyn_filter(X), cfg.repeats), cfg.batch)
     dyn_post = record("dynamax hmm_smoother (f32)", *timed(lambda: dyn_smoother(X), cfg.repeats), cfg.batch)
