@@ -20,7 +20,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from phmm_jax.model import HMM, NEG_INF
+from phmm_jax.model import HMM, NEG_INF, HMMConfig
 
 
 def logsumexp(a, axis):
@@ -49,42 +49,39 @@ def logaddexp(a, b):
     return jnp.where(positive, jnp.log(jnp.where(positive, total, 1.0)) + peak, NEG_INF)
 
 
-@partial(jax.tree_util.register_dataclass, data_fields=["log_cont", "log_exit"],
-         meta_fields=["self_loop", "first_exit"])
+@partial(jax.tree_util.register_dataclass, data_fields=["log_cont", "log_exit"], meta_fields=["config"])
 @dataclasses.dataclass(frozen=True)
 class Chain:
     """The pseudo-state chains of a batch of HMMs in column layout.
 
     log_cont, log_exit: (N, P, B) continue / exit log-probabilities (see `phmm_jax.model`); B = 1
-    broadcasts one HMM over the batch. self_loop: the last pseudo-state continues to itself
-    (classical HMM); with explicit durations it must exit. first_exit: pseudo-states j < first_exit
-    cannot exit (their log_exit is -inf, `model.allowed_transitions`), so the exit sums skip them:
-    for durations 4-6 that halves the exponentials of a forward step.
+    broadcasts one HMM over the batch. config: the structure they share (`HMMConfig`).
     """
 
     log_cont: jnp.ndarray
     log_exit: jnp.ndarray
-    self_loop: bool
-    first_exit: int = 0
+    config: HMMConfig
+
+    @property
+    def self_loop(self) -> bool:
+        """The last pseudo-state continues to itself (classical HMM); with explicit durations it must exit."""
+        return not self.config.explicit_duration
+
+    @property
+    def first_exit(self) -> int:
+        """Pseudo-states j < first_exit cannot exit (their log_exit is -inf, `model.allowed_transitions`),
+        so the exit sums skip them: for durations 4-6 that halves the exponentials of a forward step."""
+        return self.config.min_duration - 1
 
 
 def chain(hmm: HMM) -> Chain:
     """The chain of one HMM, shared by every sequence of the batch."""
-    config = hmm.config
-    return Chain(hmm.log_cont[..., None], hmm.log_exit[..., None], not config.explicit_duration,
-                 config.min_duration - 1)
+    return Chain(hmm.log_cont[..., None], hmm.log_exit[..., None], hmm.config)
 
 
 def stacked_chain(hmms: HMM) -> Chain:
     """The chains of B HMMs whose arrays carry a leading batch axis (e.g. one per parameter φ_b)."""
-    config = hmms.config
-    return Chain(jnp.moveaxis(hmms.log_cont, 0, -1), jnp.moveaxis(hmms.log_exit, 0, -1),
-                 not config.explicit_duration, config.min_duration - 1)
-
-
-def to_columns(per_sequence):
-    """(B, T, N) emission log-densities -> (T, N, B)."""
-    return jnp.transpose(per_sequence, (1, 2, 0))
+    return Chain(jnp.moveaxis(hmms.log_cont, 0, -1), jnp.moveaxis(hmms.log_exit, 0, -1), hmms.config)
 
 
 def _neg_inf_like(a, axis):
