@@ -1,21 +1,32 @@
-"""Helpers shared by every lfd-jax library: input validation, model persistence, JAX set-up.
+"""What every lfd-jax library shares, once: input validation, padded batches, log-space numerics,
+model persistence and JAX set-up.
 
-The four libraries (`phmm_jax`, `hog_jax`, `crf_jax`, `sim`) must not import `experiments` or each
-other for plumbing, so the little they share lives here.
+The libraries (`phmm_jax`, `hog_jax`, `crf_jax`, `sim`) never import `experiments` or each other for
+plumbing, so the little they share lives here.
 """
+from lfd_common.batch import frame_mask, pad_sequences
 from lfd_common.jaxsetup import cache_dir, enable_compilation_cache
-from lfd_common.persist import SCHEMA_VERSION, load_arrays, save_arrays, write_npz
+from lfd_common.numerics import NEG_INF, float_dtype, safe_log, safe_logaddexp, safe_logsumexp
+from lfd_common.persist import (
+    SCHEMA_VERSION,
+    ArraySpec,
+    ModelCodec,
+    load_arrays,
+    load_model,
+    model_path,
+    read_file,
+    save_arrays,
+    save_model,
+    structure_from_json,
+    structure_to_json,
+    write_npz,
+)
 from lfd_common.validate import as_array, check_choice, check_int, check_real
 
 __all__ = [
-    "SCHEMA_VERSION",
-    "as_array",
-    "cache_dir",
-    "check_choice",
-    "check_int",
-    "check_real",
-    "enable_compilation_cache",
-    "load_arrays",
-    "save_arrays",
+    "NEG_INF", "SCHEMA_VERSION", "ArraySpec", "ModelCodec", "as_array", "cache_dir", "check_choice",
+    "check_int", "check_real", "enable_compilation_cache", "float_dtype", "frame_mask", "load_arrays",
+    "load_model", "model_path", "pad_sequences", "read_file", "safe_log", "safe_logaddexp",
+    "safe_logsumexp", "save_arrays", "save_model", "structure_from_json", "structure_to_json",
     "write_npz",
 ]
