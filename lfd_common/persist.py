@@ -279,7 +279,8 @@ def _check_leaf(array: np.ndarray, spec: ArraySpec, name: str, sizes: dict[str, 
     if np.any(bad):
         what = "NaN or +inf" if not spec.finite else "NaN or infinite"
         raise ValueError(f"{name}: contains {int(bad.sum())} {what} value(s)")
-    out = array.astype(float_dtype())
+    with np.errstate(over="ignore"):
+        out = array.astype(float_dtype())
     if np.any(np.isinf(out) & ~np.isinf(array)):
         raise ValueError(f"{name}: values overflow {np.dtype(float_dtype()).name}")
     return out

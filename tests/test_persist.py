@@ -80,3 +80,38 @@ def test_metadata_is_readable_json(saved):
     with np.load(saved[0]) as npz:
         meta = json.loads(str(npz["__lfd_meta__"]))
     assert meta["kind"] == KIND and meta["format"] == "lfd-jax"
+
+
+def test_plain_npy_under_an_npz_name_is_a_clear_error(tmp_path):
+    fake = tmp_path / "array.npz"
+    with open(fake, "wb") as f:
+        np.save(f, np.zeros(3))
+    with pytest.raises(ValueError, match="plain .npy array"):
+        load_arrays(fake, KIND)
+
+
+def test_corrupt_metadata_values_are_refused(tmp_path):
+    def with_meta(name, **meta):
+        path = tmp_path / f"{name}.npz"
+        base = {"format": "lfd-jax", "kind": KIND, "schema_version": 1, "config": {}}
+        np.savez(path, __lfd_meta__=np.asarray(json.dumps({**base, **meta})), x=np.zeros(2))
+        return path
+
+    with pytest.raises(ValueError, match="schema version True"):
+        load_arrays(with_meta("bool_version", schema_version=True), KIND)
+    with pytest.raises(ValueError, match="config is a list"):
+        load_arrays(with_meta("list_config", config=[1, 2]), KIND)
+
+
+def test_bad_path_and_ragged_arrays_name_the_argument(tmp_path):
+    with pytest.raises(ValueError, match="^path: expected a file path"):
+        load_arrays(None, KIND)
+    with pytest.raises(ValueError, match=r"^arrays\['x'\]: cannot be converted"):
+        save_arrays(tmp_path / "m", KIND, {"x": [[1.0, 2.0], [3.0]]})
+
+
+def test_the_path_given_to_save_loads(tmp_path):
+    written = save_arrays(tmp_path / "model", KIND, {"x": np.zeros(2)})
+    assert written == tmp_path / "model.npz"
+    arrays, _, _ = load_arrays(tmp_path / "model", KIND)
+    np.testing.assert_array_equal(arrays["x"], np.zeros(2))
