@@ -1,11 +1,14 @@
 """Validation of user batches at the public boundary (numpy in, outside jit).
 
-Every public function that takes user data goes through `check_batch` / `check_labels`, so bad
-input (length 0, NaN features, label out of range, mismatched batch sizes) is a `ValueError`
-naming the argument, never a silent NaN. Padding (frames at `t >= lengths[b]`) is not checked and
-is zeroed, so whatever a caller leaves there cannot reach the jitted code.
+Every public function that takes user data goes through `check_batch` / `check_vectors` /
+`check_labels` / `check_class_labels`, so bad input (length 0, NaN features, label out of range,
+mismatched batch sizes) is a `ValueError` naming the argument, never a silent NaN. Features are
+checked and converted by `lfd_common.pad_sequences`, so they follow its one dtype policy (the compute
+dtype: float32 unless x64 is enabled; values overflowing it are rejected). Padding (frames at
+`t >= lengths[b]`) is not checked and is zeroed, so whatever a caller leaves there cannot reach the
+jitted code.
 
-Shapes: B batch, T (padded) time, D features.
+Shapes: B batch, T (padded) time, D features, N vectors.
 """
 from __future__ import annotations
 
@@ -13,24 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd_common import as_array
-
-
-def check_lengths(lengths: Any, n_seq: int, max_len: int, name: str = "lengths") -> np.ndarray:
-    """Return `lengths` as an int32 (B,) array with 1 <= lengths[b] <= T, or raise `ValueError`."""
-    if lengths is None:
-        return np.full((n_seq,), max_len, np.int32)
-    arr = as_array(lengths, name, shape=(n_seq,), dtype=np.int64, nonempty=True)
-    if np.any(arr < 1):
-        raise ValueError(f"{name}: every sequence needs length >= 1, got a length {int(arr.min())}")
-    if np.any(arr > max_len):
-        raise ValueError(f"{name}: lengths must be <= the padded length T={max_len}, got {int(arr.max())}")
-    return arr.astype(np.int32)
-
-
-def frame_mask(lengths: np.ndarray, max_len: int) -> np.ndarray:
-    """(B, T) bool: True on real frames, False on padding."""
-    return np.arange(max_len)[None, :] < np.asarray(lengths)[:, None]
+from lfd_common import as_array, frame_mask, pad_sequences
 
 
 def check_batch(
@@ -45,27 +31,19 @@ def check_batch(
 
     X: (B, T, D) real, finite on real frames. A single sequence (T, D) is not accepted here;
     callers wrap it. lengths: (B,) ints in [1, T], or None for "all T".
-    Returns (X float32 with padding zeroed, lengths int32).
+    Returns (X in the compute dtype with padding zeroed, lengths int32).
     """
-    raw = as_array(X, name, ndim=3, dtype=None, finite=False, nonempty=False)
-    B, T, D = raw.shape
-    if B == 0:
-        raise ValueError(f"{name}: the batch is empty (B = 0)")
-    if T == 0:
-        raise ValueError(f"{name}: sequences of length 0 (T = 0) cannot be labelled")
-    if D == 0:
-        raise ValueError(f"{name}: feature dimension D is 0")
-    arr = as_array(raw, name, ndim=3, dtype=np.float64, finite=False)
-    lens = check_lengths(lengths, B, T, lengths_name)
-    mask = frame_mask(lens, T)
-    real = arr[mask]
-    if not np.all(np.isfinite(real)):
-        bad = int(np.size(real) - np.count_nonzero(np.isfinite(real)))
-        raise ValueError(f"{name}: contains {bad} NaN or infinite value(s) in real (unpadded) frames")
-    if n_features is not None and D != n_features:
-        raise ValueError(f"{name}: expected {n_features} features per frame (the model's D), got {D}")
-    out = np.where(mask[..., None], arr, 0.0).astype(np.float32)
-    return out, lens
+    X = as_array(X, name, ndim=3, dtype=None, finite=False, nonempty=False)
+    return pad_sequences(X, lengths, dim=n_features, name=name, lengths_name=lengths_name)
+
+
+def check_vectors(X: Any, *, n_features: int | None = None, name: str = "X") -> np.ndarray:
+    """Validate N feature vectors X (N, D) (finite, N, D >= 1); returned in the compute dtype.
+
+    Checked as one sequence of N frames, so that vectors and sequences share one dtype policy.
+    """
+    X = as_array(X, name, ndim=2, dtype=None, finite=False, nonempty=False)
+    return pad_sequences(X, dim=n_features, name=name)[0][0]
 
 
 def check_labels(y: Any, lengths: np.ndarray, n_labels: int, name: str = "y") -> np.ndarray:
@@ -101,24 +79,3 @@ def check_class_labels(y: Any, n_seq: int, n_labels: int, name: str = "y") -> np
         bad = arr[(arr < 0) | (arr >= n_labels)][0]
         raise ValueError(f"{name}: labels must be in [0, {n_labels}), got {int(bad)}")
     return arr.astype(np.int32)
-
-
-def pad_sequences(sequences: Any, name: str = "sequences", dtype: Any = np.float32,
-                  pad_value: float = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Stack a list of (T_b, ...) arrays into a padded (B, T_max, ...) array and their lengths (B,)."""
-    if isinstance(sequences, np.ndarray) or not hasattr(sequences, "__len__"):
-        raise ValueError(f"{name}: expected a list of per-sequence arrays")
-    if len(sequences) == 0:
-        raise ValueError(f"{name}: the list is empty")
-    arrays = [np.asarray(s) for s in sequences]
-    tail = arrays[0].shape[1:]
-    for i, a in enumerate(arrays):
-        if a.ndim < 1 or a.shape[0] == 0:
-            raise ValueError(f"{name}[{i}]: sequences of length 0 cannot be labelled")
-        if a.shape[1:] != tail:
-            raise ValueError(f"{name}[{i}]: expected per-frame shape {tail}, got {a.shape[1:]}")
-    lengths = np.array([a.shape[0] for a in arrays], np.int32)
-    out = np.full((len(arrays), int(lengths.max()), *tail), pad_value, dtype=dtype)
-    for i, a in enumerate(arrays):
-        out[i, : a.shape[0]] = a
-    return out, lengths

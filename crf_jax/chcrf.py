@@ -7,7 +7,7 @@ with additive smoothing so that unseen pairs keep a small mass). P(a | x) and P(
 any classifier that gives (log) probabilities: `chain.segment_log_probs` (pre-segmented CRF,
 eq. 3), `hcrf.log_probs` (eq. 5), `linear.predict_log_proba`. The normaliser Z(x) is returned: LfD
 uses it as the plausibility of an object-action complex (low for unseen combinations).
-All arithmetic in log space. Shapes: B batch, Ka actions, Ko objects, I history entries, P position dims.
+All arithmetic in log space; results are jax arrays in the compute dtype. Shapes: B batch, Ka actions, Ko objects, I history entries, P position dims.
 """
 from __future__ import annotations
 
@@ -16,21 +16,29 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int
 
-from crf_jax.chain import safe_logsumexp
-from lfd_common import as_array, check_int, check_real
-
-Array = jax.Array
+from lfd_common import as_array, check_int, check_real, float_dtype, safe_logsumexp
 
 
 class CHCRFResult(NamedTuple):
-    log_joint: Array  # (B, Ka, Ko) log P(a, o | x)
-    log_z: Array  # (B,) log Z(x) = log sum_{a,o} K(a, o) P(a | x) P(o | x)
-    log_action: Array  # (B, Ka) marginal log P(a | x) of the fused model
-    log_object: Array  # (B, Ko) marginal log P(o | x) of the fused model
+    log_joint: Float[Array, "B Ka Ko"]  # log P(a, o | x)
+    log_z: Float[Array, " B"]  # log Z(x) = log sum_{a,o} K(a, o) P(a | x) P(o | x)
+    log_action: Float[Array, "B Ka"]  # marginal log P(a | x) of the fused model
+    log_object: Float[Array, "B Ko"]  # marginal log P(o | x) of the fused model
 
 
-def cooccurrence(actions, objects, n_actions: int, n_objects: int, smoothing: float = 0.0) -> np.ndarray:
+class HistoryPosterior(NamedTuple):
+    log_joint: Float[Array, "Ka Ko"]  # log P(a, o | x, history), normalised
+    log_normaliser: Float[Array, ""]  # log sum_{a,o} P(a, o | x) prior(a, o)
+
+
+def _out(x) -> Array:
+    return jnp.asarray(x, dtype=float_dtype())
+
+
+def cooccurrence(actions: Int[ArrayLike, " N"], objects: Int[ArrayLike, " N"], n_actions: int, n_objects: int,
+                 smoothing: float = 0.0) -> Float[Array, "Ka Ko"]:
     """K (Ka, Ko): (count(a, o) + smoothing) / sum, from paired training labels actions, objects (N,)."""
     n_actions = check_int(n_actions, "n_actions", min_value=1)
     n_objects = check_int(n_objects, "n_objects", min_value=1)
@@ -42,7 +50,7 @@ def cooccurrence(actions, objects, n_actions: int, n_objects: int, smoothing: fl
     counts = np.zeros((n_actions, n_objects))
     np.add.at(counts, (a, o), 1.0)
     counts += smoothing
-    return counts / counts.sum()
+    return _out(counts / counts.sum())
 
 
 @jax.jit
@@ -53,7 +61,8 @@ def fuse_jit(log_pa: Array, log_po: Array, log_k: Array) -> CHCRFResult:
     return CHCRFResult(log_joint, log_z, safe_logsumexp(log_joint, axis=2), safe_logsumexp(log_joint, axis=1))
 
 
-def fuse(log_p_action, log_p_object, cooc) -> CHCRFResult:
+def fuse(log_p_action: Float[ArrayLike, "B Ka"], log_p_object: Float[ArrayLike, "B Ko"],
+         cooc: Float[ArrayLike, "Ka Ko"]) -> CHCRFResult:
     """Late fusion (eq. 8): log_p_action (B, Ka), log_p_object (B, Ko), cooc K (Ka, Ko) >= 0.
 
     The classifier outputs may be normalised log probabilities or unnormalised log scores (Z then
@@ -74,8 +83,9 @@ def fuse(log_p_action, log_p_object, cooc) -> CHCRFResult:
     return fuse_jit(jnp.asarray(la, jnp.float32), jnp.asarray(lo, jnp.float32), jnp.asarray(log_k, jnp.float32))
 
 
-def history_prior(history, history_positions, position, default_distance: float,
-                  min_distance: float = 1e-6) -> np.ndarray:
+def history_prior(history: Float[ArrayLike, "I Ka Ko"], history_positions: Float[ArrayLike, "I P"],
+                  position: Float[ArrayLike, " P"], default_distance: float,
+                  min_distance: float = 1e-6) -> Float[Array, "Ka Ko"]:
     """LfD eq. 10 prior (Ka, Ko): (1 / (I + 1)) (P_0 / delta_0 + sum_i P_i / |p_i - p|).
 
     history (I, Ka, Ko): P(a, o | x) of the I earlier OACs of the scene (I may be 0); history_positions
@@ -95,11 +105,12 @@ def history_prior(history, history_positions, position, default_distance: float,
     if n:
         dist = np.maximum(np.linalg.norm(pos - p[None], axis=1), min_distance)
         prior = prior + np.sum(hist / dist[:, None, None], axis=0)
-    return prior / (n + 1)
+    return _out(prior / (n + 1))
 
 
-def apply_history(log_joint, prior) -> tuple[np.ndarray, float]:
-    """P(a, o | x, history) ∝ P(a, o | x) * prior for one OAC: log_joint (Ka, Ko) -> (normalised log, log normaliser)."""
+def apply_history(log_joint: Float[ArrayLike, "Ka Ko"], prior: Float[ArrayLike, "Ka Ko"]) -> HistoryPosterior:
+    """P(a, o | x, history) ∝ P(a, o | x) * prior for one OAC: log_joint (Ka, Ko) ->
+    HistoryPosterior(normalised log (Ka, Ko), log normaliser ())."""
     lj = as_array(log_joint, "log_joint", ndim=2, finite=False)
     pr = as_array(prior, "prior", shape=lj.shape, min_value=0.0)
     with np.errstate(divide="ignore"):
@@ -107,5 +118,5 @@ def apply_history(log_joint, prior) -> tuple[np.ndarray, float]:
     m = np.max(s)
     if not np.isfinite(m):
         raise ValueError("prior: gives zero probability to every (action, object) pair")
-    log_norm = float(m + np.log(np.sum(np.exp(s - m))))
-    return s - log_norm, log_norm
+    log_norm = m + np.log(np.sum(np.exp(s - m)))
+    return HistoryPosterior(_out(s - log_norm), _out(log_norm))

@@ -18,35 +18,71 @@ Shapes: B batch, T time, D features, Ka / Ko action / object labels.
 """
 from __future__ import annotations
 
+import dataclasses
 from functools import partial
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
-import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int
 
-from crf_jax import chain
-from crf_jax.chain import ChainCRF, safe_logsumexp
+from crf_jax import inference
+from crf_jax._checks import check_batch
+from crf_jax._layout import check_fields
+from crf_jax.chain import ChainCRF, init_chain, unary_potentials
+from lfd_common import check_choice, check_int, safe_logsumexp
 
-Array = jax.Array
+
+@dataclasses.dataclass(frozen=True)
+class FCRFStructure:
+    """What defines a factorial CRF: Ka actions, Ko objects, D features, one connectivity C for both chains."""
+
+    n_actions: int
+    n_objects: int
+    n_features: int
+    connectivity: int = 0
+
+    def __post_init__(self):
+        check_fields(self, n_actions=1, n_objects=1, n_features=1, connectivity=0)
 
 
 class FCRF(NamedTuple):
-    """action: ChainCRF (Ka labels), object: ChainCRF (Ko labels), coupling (Ka, Ko)."""
+    """action: ChainCRF (Ka labels), object: ChainCRF (Ko labels), coupling (Ka, Ko).
+
+    Both chains read the same features with the same window (connectivity).
+    """
 
     action: ChainCRF
     object: ChainCRF
-    coupling: Array
+    coupling: Float[Array, "Ka Ko"]
 
     @property
     def n_features(self) -> int:
         return self.action.n_features
 
+    @property
+    def structure(self) -> FCRFStructure:
+        return FCRFStructure(self.action.n_labels, self.object.n_labels, self.n_features, self.action.connectivity)
+
+
+class FCRFMarginals(NamedTuple):
+    """Per-frame marginals (beliefs, for loopy BP) of the two chains, 0 on padding."""
+
+    action: Float[Array, "B T Ka"]
+    object: Float[Array, "B T Ko"]
+
+
+class SegmentLabels(NamedTuple):
+    """The most probable (action, object) label of each pre-segmented sequence."""
+
+    action: Int[Array, " B"]
+    object: Int[Array, " B"]
+
 
 def init_fcrf(n_features: int, n_actions: int, n_objects: int, connectivity: int = 0,
               dtype=jnp.float32) -> FCRF:
-    return FCRF(chain.init_chain(n_features, n_actions, connectivity, dtype=dtype),
-                chain.init_chain(n_features, n_objects, connectivity, dtype=dtype),
+    return FCRF(init_chain(n_features, n_actions, connectivity, dtype=dtype),
+                init_chain(n_features, n_objects, connectivity, dtype=dtype),
                 jnp.zeros((n_actions, n_objects), dtype))
 
 
@@ -65,16 +101,16 @@ def product_potentials(ua: Array, uo: Array, Ta: Array, To: Array, coupling: Arr
 def exact_log_partition(ua, uo, Ta, To, coupling, lengths) -> Array:
     """log Z (B,) for ua (B, T, Ka), uo (B, T, Ko)."""
     unary, trans = product_potentials(ua, uo, Ta, To, coupling)
-    return chain.log_partition(unary, trans, lengths)
+    return inference.log_partition(unary, trans, lengths)
 
 
 @jax.jit
-def exact_marginals(ua, uo, Ta, To, coupling, lengths) -> tuple[Array, Array]:
+def exact_marginals(ua, uo, Ta, To, coupling, lengths) -> FCRFMarginals:
     """Node marginals (B, T, Ka), (B, T, Ko) of the product chain (0 on padding)."""
     Ka, Ko = coupling.shape
     unary, trans = product_potentials(ua, uo, Ta, To, coupling)
-    node = chain.marginals(unary, trans, lengths)[0].reshape(ua.shape[:2] + (Ka, Ko))
-    return node.sum(-1), node.sum(-2)
+    node = inference.marginals(unary, trans, lengths).node.reshape(ua.shape[:2] + (Ka, Ko))
+    return FCRFMarginals(node.sum(-1), node.sum(-2))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -102,7 +138,7 @@ def _xlogx(log_b: Array) -> Array:
 
 def _chain_beliefs(node_pot: Array, trans: Array, lengths: Array):
     """Forward-backward on a chain with node log potentials (B, T, K): log alpha, log beta, log pair beliefs."""
-    alpha, beta, log_z = chain.forward_backward(node_pot, trans, lengths)
+    alpha, beta, log_z = inference.forward_backward(node_pot, trans, lengths)
     pair = alpha[:, :-1, :, None] + trans + (node_pot[:, 1:] + beta[:, 1:])[:, :, None, :] - log_z[:, None, None, None]
     return alpha, beta, log_z, pair
 
@@ -177,8 +213,8 @@ def loopy_bp(ua: Array, uo: Array, Ta: Array, To: Array, coupling: Array, length
 # the model on batches
 # ----------------------------------------------------------------------------------------------
 def _potentials(model: FCRF, X: Array, lengths: Array):
-    ua = chain.unary_potentials(model.action, X, lengths)
-    uo = chain.unary_potentials(model.object, X, lengths)
+    ua = unary_potentials(model.action, X, lengths)
+    uo = unary_potentials(model.object, X, lengths)
     return ua, uo, model.action.trans, model.object.trans, model.coupling
 
 
@@ -195,8 +231,8 @@ def log_partition(model: FCRF, X: Array, lengths: Array, method: str = "exact", 
 def score(model: FCRF, X: Array, ya: Array, yo: Array, lengths: Array) -> Array:
     """Unnormalised log score (B,) of label sequences ya, yo (B, T)."""
     ua, uo, Ta, To, coupling = _potentials(model, X, lengths)
-    sa = jax.vmap(chain.sequence_score, (0, None, 0, 0))(ua, Ta, ya, lengths)
-    so = jax.vmap(chain.sequence_score, (0, None, 0, 0))(uo, To, yo, lengths)
+    sa = jax.vmap(inference.sequence_score, (0, None, 0, 0))(ua, Ta, ya, lengths)
+    so = jax.vmap(inference.sequence_score, (0, None, 0, 0))(uo, To, yo, lengths)
     valid = jnp.arange(X.shape[1])[None, :] < lengths[:, None]
     sc = jnp.sum(jnp.where(valid, coupling[jnp.where(valid, ya, 0), jnp.where(valid, yo, 0)], 0.0), axis=1)
     return sa + so + sc
@@ -214,7 +250,7 @@ def marginals_jit(model: FCRF, X, lengths, method: str = "exact", n_iter: int = 
     if method == "exact":
         return exact_marginals(*pots, lengths)
     bp = loopy_bp(*pots, lengths, n_iter=n_iter)
-    return bp.action, bp.object
+    return FCRFMarginals(bp.action, bp.object)
 
 
 @partial(jax.jit, static_argnames=("method", "n_iter"))
@@ -231,29 +267,29 @@ def segment_log_probs_jit(model: FCRF, X, lengths, method: str = "exact", n_iter
 
 
 def _prepare(model: FCRF, X, lengths, method, n_iter):
-    from crf_jax._checks import check_batch
-    from lfd_common import check_choice, check_int
-
     check_choice(method, "method", ("exact", "loopy"))
     check_int(n_iter, "n_iter", min_value=1)
     Xc, lens = check_batch(X, lengths, n_features=model.n_features)
     return jnp.asarray(Xc), jnp.asarray(lens)
 
 
-def predict_marginals(model: FCRF, X, lengths=None, method: str = "exact", n_iter: int = 20):
-    """Validated: per-frame marginals (B, T, Ka), (B, T, Ko) (beliefs with method="loopy")."""
+def predict_marginals(model: FCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None,
+                      method: str = "exact", n_iter: int = 20) -> FCRFMarginals:
+    """Validated: per-frame marginals FCRFMarginals((B, T, Ka), (B, T, Ko)) (beliefs with method="loopy")."""
     Xj, lj = _prepare(model, X, lengths, method, n_iter)
     return marginals_jit(model, Xj, lj, method, n_iter)
 
 
-def segment_log_probs(model: FCRF, X, lengths=None, method: str = "exact", n_iter: int = 20) -> Array:
+def segment_log_probs(model: FCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None,
+                      method: str = "exact", n_iter: int = 20) -> Float[Array, "B Ka Ko"]:
     """Validated: pre-segmented log P(a_t = a, o_t = o for all t | x), (B, Ka, Ko)."""
     Xj, lj = _prepare(model, X, lengths, method, n_iter)
     return segment_log_probs_jit(model, Xj, lj, method, n_iter)
 
 
-def predict_segments(model: FCRF, X, lengths=None, method: str = "exact", n_iter: int = 20):
-    """Validated: the most probable (action, object) per pre-segmented sequence: two (B,) int arrays."""
-    lp = np.asarray(segment_log_probs(model, X, lengths, method, n_iter))
-    flat = lp.reshape(lp.shape[0], -1).argmax(axis=1)
-    return flat // lp.shape[2], flat % lp.shape[2]
+def predict_segments(model: FCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None,
+                     method: str = "exact", n_iter: int = 20) -> SegmentLabels:
+    """Validated: the most probable (action, object) per pre-segmented sequence: SegmentLabels((B,), (B,))."""
+    lp = segment_log_probs(model, X, lengths, method, n_iter)
+    flat = jnp.argmax(lp.reshape(lp.shape[0], -1), axis=1)
+    return SegmentLabels(flat // lp.shape[2], flat % lp.shape[2])

@@ -12,8 +12,11 @@ An experiment declares a frozen dataclass (with a `seed: int` field) and its pre
 
 The command line then accepts `--preset quick|paper` (default quick), `--out DIR` (default
 `runs/<name>/<timestamp>`), `--seed S` and one `--field-name value` per field. Values resolve as
-field default < preset < explicit flag. `run` is a `RunOutput` that writes `config.json`,
-`metrics.json`, `report.md` and figures into the output folder.
+field default < preset < explicit flag. `run` is a `RunOutput`, the one writer of `config.json`,
+`metrics.json`, `report.md` and figures in the output folder: an experiment is a few stages that
+each return a `StageResult` (nested metrics, figures, a report section), and its `main` writes them
+with one `run.write(...)` / `run.write_stages(...)` call. Nested metrics are written flattened, keys
+joined by "_" (`{"param_error_cm_noise": {"10cm": x}}` -> `param_error_cm_noise_10cm`).
 """
 from __future__ import annotations
 
@@ -156,11 +159,45 @@ def _json_value(key: str, value: Any) -> Any:
         return value
     if isinstance(value, np.ndarray) and value.ndim == 0:
         return _json_value(key, value.item())
-    raise ValueError(f"metrics[{key!r}]: expected a scalar (flat keys, units in the name), got {type(value).__name__}")
+    if isinstance(value, (list, tuple)):  # a short list of scalars (a confusion matrix row, labels)
+        return [_json_value(f"{key}[{i}]", v) for i, v in enumerate(value)]
+    raise ValueError(f"metrics[{key!r}]: expected a scalar, a list of scalars or a dict of them "
+                     f"(units in the key names), got {type(value).__name__}")
+
+
+def flatten_metrics(metrics: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested metrics -> one flat dict: {"a": {"b": 1}} -> {"a_b": 1} (keys joined by "_"). A key that
+    comes out twice must carry the same value both times, else ValueError."""
+    flat: dict[str, Any] = {}
+    for key, value in metrics.items():
+        name = f"{prefix}{key}"
+        items = flatten_metrics(value, name + "_").items() if isinstance(value, Mapping) else [(name, value)]
+        for k, v in items:
+            if k in flat and _json_value(k, flat[k]) != _json_value(k, v):
+                raise ValueError(f"metrics[{k!r}]: given twice with different values ({flat[k]!r}, {v!r})")
+            flat[k] = v
+    return flat
+
+
+def _json_tree(key: str, value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _json_tree(f"{key}.{k}", v) for k, v in value.items()}
+    return _json_value(key, value)
+
+
+@dataclasses.dataclass
+class StageResult:
+    """What one stage of an experiment returns: metrics (nested dicts allowed, units in the key
+    names), figures (file name -> matplotlib figure or (H, W, 3|4) image array) and a report section."""
+
+    metrics: dict = dataclasses.field(default_factory=dict)
+    figures: dict = dataclasses.field(default_factory=dict)
+    report: str = ""
 
 
 class RunOutput:
-    """The output folder of one run: `metrics.json`, `report.md`, figures and other files."""
+    """The output folder of one run, and its one writer: `config.json`, `metrics.json`, `report.md`,
+    figures. An experiment's `main` ends in one `write(...)` call."""
 
     def __init__(self, path: Path, name: str):
         self.path = Path(path)
@@ -175,9 +212,38 @@ class RunOutput:
         target.write_text(json.dumps(data, indent=2, sort_keys=True, default=str) + "\n")
         return target
 
+    def write(self, metrics: Mapping[str, Any], report: str | None = None, figures: Mapping[str, Any] | None = None,
+              *, filename: str = "metrics.json", flat: bool = True) -> dict[str, Any]:
+        """Save `figures`, then `metrics` as `filename` (flattened: `flatten_metrics`; with
+        `flat=False` kept nested, for a benchmark's `bench.json`), then `report` as report.md.
+        Returns the metrics as written."""
+        for name, figure in (figures or {}).items():
+            self.save_figure(figure, name)
+        if flat:
+            written = {k: _json_value(k, v) for k, v in flatten_metrics(metrics).items()}
+        else:
+            written = _json_tree("", metrics)
+        self.write_json(filename, written)
+        if report is not None:
+            self.write_report(report)
+        return written
+
+    def write_stages(self, results: Sequence[StageResult], header: str = "", **extra_metrics) -> dict[str, Any]:
+        """`write` for a run made of stages: their metrics merged (plus `extra_metrics`), their figures,
+        and the report `header` followed by every stage's section."""
+        metrics: dict[str, Any] = {}
+        figures: dict[str, Any] = {}
+        for result in results:
+            metrics.update(result.metrics)
+            figures.update(result.figures)
+        metrics.update(extra_metrics)
+        sections = [header] + [r.report for r in results if r.report]
+        return self.write(metrics, "\n\n".join(s for s in sections if s), figures)
+
     def write_metrics(self, metrics: Mapping[str, Any]) -> Path:
-        """Write flat scalar metrics (NaN/inf are stored as strings so the JSON stays valid)."""
-        return self.write_json("metrics.json", {k: _json_value(k, v) for k, v in metrics.items()})
+        """Write scalar metrics, nested dicts flattened (NaN/inf are stored as strings so the JSON stays valid)."""
+        self.write(metrics)
+        return self.file("metrics.json")
 
     def write_report(self, markdown: str) -> Path:
         target = self.file("report.md")
@@ -185,10 +251,14 @@ class RunOutput:
         return target
 
     def save_figure(self, fig, filename: str, dpi: int = 120) -> Path:
-        """Save a matplotlib figure as PNG under the run folder and close it."""
+        """Save a matplotlib figure (closed afterwards) or an image array (H, W, 3|4) as PNG under the run folder."""
         import matplotlib.pyplot as plt
 
         target = self.file(filename)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if isinstance(fig, np.ndarray):
+            plt.imsave(target, fig)
+            return target
         fig.savefig(target, dpi=dpi, bbox_inches="tight")
         plt.close(fig)
         return target

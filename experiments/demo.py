@@ -20,20 +20,17 @@ import dataclasses
 import importlib
 import time
 
-import sim  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 import jax
 import jax.numpy as jnp
-import matplotlib
+import mujoco
+import numpy as np
+from mujoco import mjx
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from mujoco import mjx  # noqa: E402
-
-from experiments.config import RunOutput, markdown_table, parse_config  # noqa: E402
-from lfd_common import enable_compilation_cache  # noqa: E402
-from sim.scenes import random_drop_heights, table_height_m  # noqa: E402
+import sim
+from experiments.config import StageResult, markdown_table, parse_config
+from experiments.plotting import plt
+from lfd_common import enable_compilation_cache
+from sim.scenes import random_drop_heights, table_height_m
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,7 +59,7 @@ PRESETS = {
 }
 
 
-def sim_stage(cfg: DemoConfig, run: RunOutput) -> tuple[dict, str]:
+def sim_stage(cfg: DemoConfig) -> StageResult:
     """Drop objects on a table in `cfg.n_worlds` MJX worlds; render and plot one of them."""
     model = mujoco.MjModel.from_xml_string(sim.tabletop_drop_scene(cfg.n_objects))
     mjx_model = mjx.put_model(model)
@@ -84,7 +81,6 @@ def sim_stage(cfg: DemoConfig, run: RunOutput) -> tuple[dict, str]:
     final_qpos = np.asarray(final.qpos)
     heights = np.asarray(trajectory)[:, :, z_index]  # (steps, W, objects)
     frame = sim.render_frame(model, final_qpos[0], cfg.image_width, cfg.image_height, camera="front")
-    plt.imsave(run.file("frame.png"), frame)
 
     fig, ax = plt.subplots(figsize=(6, 3.5))
     t = np.arange(1, heights.shape[0] + 1) * record_every * model.opt.timestep
@@ -95,7 +91,6 @@ def sim_stage(cfg: DemoConfig, run: RunOutput) -> tuple[dict, str]:
     ax.set_ylabel("height (m)")
     ax.set_title(f"MJX drop test, {cfg.n_worlds} worlds in one vmap")
     ax.legend(fontsize=7)
-    run.save_figure(fig, "heights.png")
 
     above_table = final_qpos[:, z_index] - table_height_m()
     metrics = {
@@ -124,19 +119,19 @@ def sim_stage(cfg: DemoConfig, run: RunOutput) -> tuple[dict, str]:
         "",
         "![frame](frame.png) ![heights](heights.png)",
     ])
-    return metrics, report
+    return StageResult(metrics, {"frame.png": frame, "heights.png": fig}, report)
 
 
 def _lazy_stage(module: str, name: str = "demo_stage"):
     """A stage that imports its experiment module only when it runs, so `--help` stays fast."""
-    def stage(cfg: DemoConfig, run: RunOutput) -> tuple[dict, str]:
-        return getattr(importlib.import_module(module), name)(cfg, run)
+    def stage(cfg: DemoConfig) -> StageResult:
+        return getattr(importlib.import_module(module), name)(cfg)
 
     stage.__doc__ = f"Stage from `{module}.{name}`."
     return stage
 
 
-# Each stage: (cfg, run) -> (metrics, report section). Order: physics smoke test, then the papers'
+# Each stage: cfg -> StageResult (metrics, figures, report section). Order: physics smoke test, then the papers'
 # pipelines on generated data.
 STAGES = {
     "sim": sim_stage,
@@ -149,22 +144,19 @@ STAGES = {
 
 def main(argv=None) -> dict:
     cfg, run = parse_config(DemoConfig, PRESETS, name="demo", argv=argv)
+    sim.setup_rendering()
     enable_compilation_cache()
     devices = jax.devices()
     print(f"jax {jax.__version__}, devices: {', '.join(str(d) for d in devices)}")
-    metrics: dict = {"jax_version": jax.__version__, "jax_backend": devices[0].platform,
-                     "jax_device_count": len(devices)}
-    sections = ["# lfd-jax demo", "", f"JAX {jax.__version__} on {', '.join(str(d) for d in devices)}."]
+    results = []
     for name in cfg.stages or tuple(STAGES):
-        stage = STAGES[name]
         print(f"stage {name} ...", flush=True)
-        stage_metrics, section = stage(cfg, run)
-        metrics.update(stage_metrics)
-        sections += ["", section]
-    run.write_metrics(metrics)
-    run.write_report("\n".join(sections))
+        results.append(STAGES[name](cfg))
+    header = f"# lfd-jax demo\n\nJAX {jax.__version__} on {', '.join(str(d) for d in devices)}."
+    written = run.write_stages(results, header, jax_version=jax.__version__, jax_backend=devices[0].platform,
+                               jax_device_count=len(devices))
     print(f"wrote {run.path}/: " + ", ".join(sorted(p.name for p in run.path.iterdir())))
-    return metrics
+    return written
 
 
 if __name__ == "__main__":

@@ -1,21 +1,27 @@
 """hog_jax: the image side of grasp recognition (GRASP, Kjellström, Romero & Kragic 2008; ECCV 2008; LfD 2009).
 
 Pipeline: frames -> `segment` (skin GMM, median filter, connected component, crop) -> `hog`
-(gradient-orientation histogram pyramid) -> `lsh.query` / `exact_search` (k nearest neighbours)
+(gradient-orientation histogram pyramid) -> `lsh.query` / `exact.exact_search` (k nearest neighbours)
 -> `knn.predict` (distance-weighted class vote, eq. 3, and rotation-averaged orientation, eq. 4).
+
+Modules, each importing only those before it: `exact` (exact search and the neighbour result type)
+<- `lsh` (hyperplane LSH, tuned against `exact`) <- `knn` (classification on either); `hog` and
+`segment` stand alone; all use `lfd_common`.
 
 Public API (shapes: B batch, H x W pixels, D feature length, N database points, Q queries):
 
 * Segmentation: `GMM`, `SkinModel`, `fit_gmm(key, x, n_components)`, `fit_skin_model(key, skin_rgb,
   background_rgb)`, `skin_log_ratio(model, frames)`, `segment(model, frames, ...)` -> `Segmentation`,
-  `rgb_to_chroma`, `gmm_log_prob`, `median3`, `save_skin_model` / `load_skin_model`.
+  `rgb_to_chroma`, `gmm_log_prob`, `median3`, `save_skin_model(path, model)` / `load_skin_model(path)`
+  (the structure, `SkinStructure`, and the arrays, checked on load, through `lfd_common.save_model`).
 * HOG: `HOGConfig` (n_bins=4, n_levels=3, layout="pyramid"|"grid", orientation="grasp"|"abs",
   weighting="magnitude"|"count", binning="hard"|"soft", normalize="global"|"cell"|"none"),
   `hog(images (B, H, W), config, mask=None)` -> (B, D), `hog_dim(config)`.
 * LSH: `build_index(key, data (N, D), n_bits, n_tables)` -> `LSHIndex`, `query(index, queries (Q, D), k)`
   -> `LSHResult(indices, distances, n_scanned)`, `tune(key, data, held_out, k, target_recall)`,
   `recall_at_k`.
-* kNN: `exact_search(data, queries, k)` -> `LSHResult`, `fit(data, labels, orientations)` -> `KNNModel`
+* Exact search: `exact_search(data, queries, k)` -> `LSHResult` (the drop-in for `query`).
+* kNN: `fit(data, labels, orientations)` -> `KNNModel`
   (sigma from eq. 5), `predict(model, queries, k, index=None)` -> `Prediction(label, scores, quat,
   euler, indices, distances)`, `intra_class_sigma`, `vote`, `mean_rotation`, `euler_to_quat`,
   `quat_to_euler`.
@@ -33,15 +39,16 @@ Every public function validates its numpy input (outside jit) and raises `ValueE
 argument: empty batch, non-2-D image, all-zero image, NaN pixels, k larger than the database, a query
 of the wrong dimension, an orientation array that does not match the labels.
 """
+from hog_jax.exact import LSHResult, exact_search
 from hog_jax.hog import HOGConfig, hog, hog_dim
-from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, exact_search, fit, intra_class_sigma,
-                         mean_rotation, predict, quat_to_euler, vote)
-from hog_jax.segment import (GMM, Segmentation, SkinModel, fit_gmm, fit_skin_model, gmm_log_prob,
+from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
+                         quat_to_euler, vote)
+from hog_jax.lsh import LSHIndex, TuneResult, build_index, query, recall_at_k, tune
+from hog_jax.segment import (GMM, Segmentation, SkinModel, SkinStructure, fit_gmm, fit_skin_model, gmm_log_prob,
                              load_skin_model, median3, rgb_to_chroma, save_skin_model, segment, skin_log_ratio)
-from hog_jax.lsh import LSHIndex, LSHResult, TuneResult, build_index, query, recall_at_k, tune
 
 __all__ = [
-    "GMM", "Segmentation", "SkinModel", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
+    "GMM", "Segmentation", "SkinModel", "SkinStructure", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
     "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
     "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "Prediction", "TuneResult", "build_index",
     "euler_to_quat", "exact_search", "fit", "hog", "hog_dim", "intra_class_sigma", "mean_rotation",

@@ -15,8 +15,9 @@ Shapes: N database points, M classes, Q queries, D feature dimension, k neighbou
   the largest eigenvalue (sign-invariant, so q and -q are the same rotation). It is returned as a
   unit quaternion (w, x, y, z) and as Euler angles.
 * Euler angles o = (phi, theta, psi) in radians, intrinsic Z-Y'-X'' (yaw, pitch, roll):
-  R = Rz(phi) Ry(theta) Rx(psi) (scipy's `Rotation.from_euler("ZYX", ...)`).
-* `exact_search` is the exact kNN drop-in for `lsh.query` (same result type).
+  R = Rz(phi) Ry(theta) Rx(psi) (scipy's `Rotation.from_euler("ZYX", ...)`); the conversions are
+  `lfd_common.rotations`'.
+* Neighbours come from `lsh.query` (an index) or `exact.exact_search` (none).
 """
 from __future__ import annotations
 
@@ -26,72 +27,16 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int
 
-from lfd_common import as_array, check_int, check_real
-from hog_jax.lsh import LSHIndex, LSHResult
+from hog_jax.exact import exact_search
+from hog_jax.lsh import LSHIndex, query
+from lfd_common import as_array, check_int, check_real, euler_zyx_to_quat, quat_to_euler_zyx
 
 __all__ = [
-    "KNNModel", "Prediction", "euler_to_quat", "exact_search", "fit", "intra_class_sigma", "mean_rotation",
-    "predict", "quat_to_euler", "vote",
+    "KNNModel", "Prediction", "euler_to_quat", "fit", "intra_class_sigma", "mean_rotation", "predict",
+    "quat_to_euler", "vote",
 ]
-
-
-# ----------------------------------------------------------------------------------------- search
-@partial(jax.jit, static_argnames=("k", "q_chunk", "n_block"))
-def _exact(data, sq, queries, k: int, q_chunk: int, n_block: int):
-    N, D = data.shape
-    n_blocks = -(-N // n_block)
-    pad = n_blocks * n_block - N
-    blocks = jnp.concatenate([data, jnp.zeros((pad, D), data.dtype)]).reshape(n_blocks, n_block, D)
-    sq_b = jnp.concatenate([sq, jnp.full((pad,), jnp.inf, sq.dtype)]).reshape(n_blocks, n_block)
-    kb = min(k, n_block)
-
-    def one_chunk(qc):  # (c, D) -> top k over all blocks, merged block by block
-        qq = jnp.sum(qc * qc, axis=1, keepdims=True)
-
-        def step(carry, blk):
-            best_d, best_i = carry
-            x, s, b = blk
-            d2 = qq - 2.0 * qc @ x.T + s[None]
-            neg, pos = jax.lax.top_k(-d2, kb)
-            cand_d = jnp.concatenate([best_d, -neg], axis=1)
-            cand_i = jnp.concatenate([best_i, (pos + b * n_block).astype(jnp.int32)], axis=1)
-            neg2, sel = jax.lax.top_k(-cand_d, k)
-            return (-neg2, jnp.take_along_axis(cand_i, sel, axis=1)), None
-
-        init = (jnp.full((qc.shape[0], k), jnp.inf, data.dtype), jnp.full((qc.shape[0], k), -1, jnp.int32))
-        (d2, idx), _ = jax.lax.scan(step, init, (blocks, sq_b, jnp.arange(n_blocks)))
-        # exact distances of the k found (the expanded form above loses precision for near points)
-        diff = data[jnp.maximum(idx, 0)] - qc[:, None, :]
-        d = jnp.sqrt(jnp.sum(diff * diff, axis=-1))
-        order = jnp.argsort(d, axis=1)
-        return jnp.take_along_axis(idx, order, 1), jnp.take_along_axis(d, order, 1)
-
-    Q = queries.shape[0]
-    n_chunks = -(-Q // q_chunk)
-    qp = jnp.concatenate([queries, jnp.broadcast_to(queries[:1], (n_chunks * q_chunk - Q, D))])
-    idx, d = jax.lax.map(one_chunk, qp.reshape(n_chunks, q_chunk, D))
-    return idx.reshape(-1, k)[:Q], d.reshape(-1, k)[:Q]
-
-
-def exact_search(data, queries, k: int = 10) -> LSHResult:
-    """Exact Euclidean kNN of each query (Q, D) in `data` (N, D): an `LSHResult` with n_scanned = N.
-
-    Blocked over the database (a running top-k merged per block of 16,384 points), so memory stays
-    O(Q_chunk x block) even for millions of points.
-    """
-    data = as_array(data, "data", ndim=2, dtype=np.float32)
-    q = as_array(queries, "queries", ndim=(1, 2), dtype=np.float32)
-    single = q.ndim == 1
-    q = q[None] if single else q
-    if q.shape[1] != data.shape[1]:
-        raise ValueError(f"queries: expected dimension D = {data.shape[1]} (the database's), got {q.shape[1]}")
-    N = data.shape[0]
-    check_int(k, "k", min_value=1, max_value=N)
-    x = jnp.asarray(data)
-    idx, d = _exact(x, jnp.sum(x * x, axis=1), jnp.asarray(q), k, min(q.shape[0], 64), min(N, 16384))
-    res = LSHResult(idx, d, jnp.full((q.shape[0],), N, jnp.int32))
-    return LSHResult(*(a[0] for a in res)) if single else res
 
 
 # ------------------------------------------------------------------------------------------ sigma
@@ -107,8 +52,8 @@ def _pair_distance_sum(x: np.ndarray, block: int = 512) -> float:
     return total
 
 
-def intra_class_sigma(data, labels, max_exact: int = 10_000, n_pairs: int = 1_000_000,
-                      seed: int = 0) -> float:
+def intra_class_sigma(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"], max_exact: int = 10_000,
+                      n_pairs: int = 1_000_000, seed: int = 0) -> float:
     """sigma of GRASP eq. 5: the mean distance between two distinct points of the same class.
 
     data: (N, D); labels: (N,) ints. Classes with <= max_exact points are exact (all pairs, float64
@@ -142,31 +87,20 @@ def intra_class_sigma(data, labels, max_exact: int = 10_000, n_pairs: int = 1_00
 
 
 # ------------------------------------------------------------------------------------ rotations
-def euler_to_quat(euler: jax.Array) -> jax.Array:
-    """(..., 3) Euler angles (phi, theta, psi), R = Rz(phi) Ry(theta) Rx(psi) -> (..., 4) (w, x, y, z)."""
-    half = 0.5 * jnp.asarray(euler)
-    cz, sz = jnp.cos(half[..., 0]), jnp.sin(half[..., 0])
-    cy, sy = jnp.cos(half[..., 1]), jnp.sin(half[..., 1])
-    cx, sx = jnp.cos(half[..., 2]), jnp.sin(half[..., 2])
-    w = cz * cy * cx + sz * sy * sx
-    x = cz * cy * sx - sz * sy * cx
-    y = cz * sy * cx + sz * cy * sx
-    z = sz * cy * cx - cz * sy * sx
-    return jnp.stack([w, x, y, z], axis=-1)
+def euler_to_quat(euler: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 4"]:
+    """(..., 3) Euler angles (phi, theta, psi), R = Rz(phi) Ry(theta) Rx(psi) -> (..., 4) (w, x, y, z),
+    a jax array (`lfd_common.euler_zyx_to_quat`)."""
+    return euler_zyx_to_quat(jnp.asarray(euler))
 
 
-def quat_to_euler(q: jax.Array) -> jax.Array:
-    """(..., 4) unit quaternions (w, x, y, z) -> (..., 3) Z-Y'-X'' Euler angles, theta in [-pi/2, pi/2]."""
-    q = jnp.asarray(q)
-    q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    phi = jnp.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    theta = jnp.arcsin(jnp.clip(2 * (w * y - z * x), -1.0, 1.0))
-    psi = jnp.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    return jnp.stack([phi, theta, psi], axis=-1)
+def quat_to_euler(q: Float[ArrayLike, "*batch 4"]) -> Float[Array, "*batch 3"]:
+    """(..., 4) quaternions (w, x, y, z) -> (..., 3) Z-Y'-X'' Euler angles, theta in [-pi/2, pi/2], a jax
+    array (`lfd_common.quat_to_euler_zyx`)."""
+    return quat_to_euler_zyx(jnp.asarray(q))
 
 
-def mean_rotation(quats: jax.Array, weights: jax.Array) -> jax.Array:
+def mean_rotation(quats: Float[ArrayLike, "*batch n 4"], weights: Float[ArrayLike, "*batch n"]
+                  ) -> Float[Array, "*batch 4"]:
     """Weighted mean rotation (..., n, 4), (..., n) -> (..., 4): top eigenvector of sum w q q^T,
     sign chosen with w >= 0. Weights must not all be zero."""
     m = jnp.einsum("...n,...ni,...nj->...ij", weights, quats, quats)
@@ -180,10 +114,10 @@ class KNNModel(NamedTuple):
     """A kNN classifier/regressor: data (N, D) float32, labels (N,) int32 in [0, M), quats (N, 4)
     orientations as unit quaternions (zeros when none were given), sigma () eq. 5, n_classes M."""
 
-    data: jax.Array
-    labels: jax.Array
-    quats: jax.Array
-    sigma: jax.Array
+    data: Float[Array, "N D"]
+    labels: Int[Array, " N"]
+    quats: Float[Array, "N 4"]
+    sigma: Float[Array, ""]
     n_classes: int
 
 
@@ -191,16 +125,17 @@ class Prediction(NamedTuple):
     """label (Q,) int32; scores (Q, M) eq. 3 class scores; quat (Q, 4) and euler (Q, 3) the eq. 4
     orientation (NaN where the model has none); indices / distances (Q, k) the neighbours used."""
 
-    label: jax.Array
-    scores: jax.Array
-    quat: jax.Array
-    euler: jax.Array
-    indices: jax.Array
-    distances: jax.Array
+    label: Int[Array, " Q"]
+    scores: Float[Array, "Q M"]
+    quat: Float[Array, "Q 4"]
+    euler: Float[Array, "Q 3"]
+    indices: Int[Array, "Q k"]
+    distances: Float[Array, "Q k"]
 
 
-def fit(data, labels, orientations=None, sigma: float | None = None, n_classes: int | None = None,
-        max_exact: int = 10_000, seed: int = 0) -> KNNModel:
+def fit(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"],
+        orientations: Float[ArrayLike, "N 3"] | None = None, sigma: float | None = None,
+        n_classes: int | None = None, max_exact: int = 10_000, seed: int = 0) -> KNNModel:
     """A kNN model. data (N, D); labels (N,) ints in [0, M); orientations (N, 3) Euler angles (radians,
     Z-Y'-X'') or None; sigma: eq. 5 from the data when None."""
     x = as_array(data, "data", ndim=2, dtype=np.float32)
@@ -215,14 +150,16 @@ def fit(data, labels, orientations=None, sigma: float | None = None, n_classes: 
         o = as_array(orientations, "orientations", ndim=2, dtype=np.float64)
         if o.shape != (N, 3):
             raise ValueError(f"orientations: expected shape ({N}, 3) (Euler angles per data row), got {o.shape}")
-        quats = np.asarray(euler_to_quat(jnp.asarray(o, jnp.float32)))
+        quats = np.asarray(euler_to_quat(o.astype(np.float32)))
     s = intra_class_sigma(x, y, max_exact=max_exact, seed=seed) if sigma is None else \
         check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
     return KNNModel(jnp.asarray(x), jnp.asarray(y, jnp.int32), jnp.asarray(quats), jnp.float32(s), M)
 
 
 @partial(jax.jit, static_argnames=("n_classes",))
-def vote(labels, distances, quats, sigma, n_classes: int):
+def vote(labels: Int[ArrayLike, "Q k"], distances: Float[ArrayLike, "Q k"], quats: Float[ArrayLike, "Q k 4"],
+         sigma: Float[ArrayLike, ""], n_classes: int
+         ) -> tuple[Int[Array, " Q"], Float[Array, "Q M"], Float[Array, "Q 4"]]:
     """Eqs. 3-4 for neighbour labels (Q, k) (-1 = none), distances (Q, k), quaternions (Q, k, 4).
 
     Returns (label (Q,), scores (Q, M), quat (Q, 4)). Weights are exp(-d^2 / (2 sigma^2)); the
@@ -242,16 +179,15 @@ def vote(labels, distances, quats, sigma, n_classes: int):
     return label, scores, quat
 
 
-def predict(model: KNNModel, queries, k: int = 10, index: LSHIndex | None = None,
-            n_per_table: int = 64, n_tables: int | None = None, max_rerank: int | None = None) -> Prediction:
+def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"], k: int = 10,
+            index: LSHIndex | None = None, n_per_table: int = 64, n_tables: int | None = None,
+            max_rerank: int | None = None) -> Prediction:
     """Class and orientation of each query (Q, D): neighbours from `index` (LSH, built on
     model.data) or exact search when None, then eqs. 3-4."""
-    from hog_jax.lsh import query as lsh_query
-
     if index is not None:
         if index.data.shape != model.data.shape:
             raise ValueError(f"index: built on {index.data.shape} points, the model holds {model.data.shape}")
-        res = lsh_query(index, queries, k, n_per_table, n_tables, max_rerank)
+        res = query(index, queries, k, n_per_table, n_tables, max_rerank)
     else:
         res = exact_search(model.data, queries, k)
     idx, dist = res.indices, res.distances

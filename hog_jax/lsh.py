@@ -29,7 +29,9 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int, Key
 
+from hog_jax.exact import LSHResult, check_queries, exact_search
 from lfd_common import as_array, check_int, check_real
 
 __all__ = ["LSHIndex", "LSHResult", "TuneResult", "build_index", "query", "recall_at_k", "tune"]
@@ -38,28 +40,14 @@ _GOLDEN = np.uint32(2654435761)
 
 
 class LSHIndex(NamedTuple):
-    """An immutable LSH index (a pytree of arrays).
+    """An immutable LSH index (a pytree of arrays)."""
 
-    planes: (T, K, D) hyperplane normals.  center: (D,) the point the hyperplanes pass through.
-    data: (N, D) float32 database.  keys: (T, N) int32 sorted bucket ids.  order: (T, N) int32 point
-    ids in bucket order.  table_bits: () int32, log2 of the table size H.
-    """
-
-    planes: jax.Array
-    center: jax.Array
-    data: jax.Array
-    keys: jax.Array
-    order: jax.Array
-    table_bits: jax.Array
-
-
-class LSHResult(NamedTuple):
-    """indices (Q, k) int32 (-1 when not found), distances (Q, k) float32 (inf when not found),
-    n_scanned (Q,) int32 distinct candidates re-ranked."""
-
-    indices: jax.Array
-    distances: jax.Array
-    n_scanned: jax.Array
+    planes: Float[Array, "T K D"]  # hyperplane normals
+    center: Float[Array, " D"]     # the point the hyperplanes pass through (the data mean)
+    data: Float[Array, "N D"]      # the database, float32
+    keys: Int[Array, "T N"]        # per table, the bucket ids sorted
+    order: Int[Array, "T N"]       # per table, the point ids in bucket order
+    table_bits: Int[Array, ""]     # log2 of the table size H
 
 
 def _bucket(codes, n_bits: int, table_bits):
@@ -96,7 +84,8 @@ def _build(key, data, planes, table_bits, chunk: int):
     return LSHIndex(planes, center, data, keys, order.astype(jnp.int32), table_bits)
 
 
-def build_index(key: jax.Array, data, n_bits: int, n_tables: int, table_bits: int = 20) -> LSHIndex:
+def build_index(key: Key[Array, ""], data: Float[ArrayLike, "N D"], n_bits: int, n_tables: int,
+                table_bits: int = 20) -> LSHIndex:
     """Build an LSH index of `data` (N, D) with `n_tables` tables of `n_bits` hyperplanes each.
 
     key: a `jax.random` key. table_bits: log2 of the hash-table size H (1..31, default 20).
@@ -165,19 +154,8 @@ def _query(index: LSHIndex, queries, k: int, n_per_table: int, n_tables_used, n_
     return LSHResult(idx.reshape(-1, k)[:Q], dist.reshape(-1, k)[:Q], n.reshape(-1)[:Q])
 
 
-def _check_queries(index: LSHIndex, queries, k: int):
-    N, D = index.data.shape
-    q = as_array(queries, "queries", ndim=(1, 2), dtype=np.float32)
-    single = q.ndim == 1
-    q = q[None] if single else q
-    if q.shape[1] != D:
-        raise ValueError(f"queries: expected dimension D = {D} (the database's), got {q.shape[1]}")
-    check_int(k, "k", min_value=1, max_value=N)
-    return q, single
-
-
-def query(index: LSHIndex, queries, k: int = 10, n_per_table: int = 64, n_tables: int | None = None,
-          max_rerank: int | None = None) -> LSHResult:
+def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"], k: int = 10,
+          n_per_table: int = 64, n_tables: int | None = None, max_rerank: int | None = None) -> LSHResult:
     """The k approximate nearest neighbours of each query (Q, D) (or one (D,) query).
 
     n_per_table: candidate slots per table and query (C; a larger bucket contributes a random C of
@@ -186,7 +164,8 @@ def query(index: LSHIndex, queries, k: int = 10, n_per_table: int = 64, n_tables
     ids are kept and n_scanned reports R); at most 4 R bucket slots are collected, in table order.
     Returns an `LSHResult`.
     """
-    q, single = _check_queries(index, queries, k)
+    q, single = check_queries(queries, index.data.shape[1])
+    check_int(k, "k", min_value=1, max_value=index.data.shape[0])
     check_int(n_per_table, "n_per_table", min_value=1)
     T = index.planes.shape[0]
     n_tables = T if n_tables is None else check_int(n_tables, "n_tables", min_value=1, max_value=T)
@@ -200,7 +179,7 @@ def query(index: LSHIndex, queries, k: int = 10, n_per_table: int = 64, n_tables
     return LSHResult(*(a[0] for a in res)) if single else res
 
 
-def recall_at_k(found, truth) -> float:
+def recall_at_k(found: Int[ArrayLike, "Q k"], truth: Int[ArrayLike, "Q k"]) -> float:
     """Mean over queries of |found_q ∩ truth_q| / k for (Q, k) index arrays (-1 = nothing found)."""
     found, truth = np.asarray(found), np.asarray(truth)
     if found.shape != truth.shape:
@@ -225,9 +204,10 @@ class TuneResult(NamedTuple):
     table: tuple
 
 
-def tune(key: jax.Array, data, queries, k: int = 10, target_recall: float = 0.9,
-         n_bits_grid=(8, 10, 12, 14, 16, 18, 20), n_tables_grid=(1, 2, 4, 8, 12, 16, 24, 32),
-         n_per_table: int = 64, table_bits: int = 20, truth=None) -> TuneResult:
+def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"], k: int = 10,
+         target_recall: float = 0.9, n_bits_grid=(8, 10, 12, 14, 16, 18, 20),
+         n_tables_grid=(1, 2, 4, 8, 12, 16, 24, 32),
+         n_per_table: int = 64, table_bits: int = 20, truth: Int[ArrayLike, "Q k"] | None = None) -> TuneResult:
     """Pick (K, T) reaching recall@k >= target_recall on held-out `queries` (Q, D) (not in `data`)
     with the fewest distinct candidates scanned, then the re-rank buffer R: the smallest power of two
     >= the 99th percentile of distinct candidates that keeps the target (else R = T C).
@@ -235,8 +215,6 @@ def tune(key: jax.Array, data, queries, k: int = 10, target_recall: float = 0.9,
     For each K one index with max(T grid) tables is built and the first t tables are used for each t,
     so the grid costs one build per K. `truth` (Q, k): exact neighbour ids if already known.
     """
-    from hog_jax.knn import exact_search
-
     data = as_array(data, "data", ndim=2, dtype=np.float32)
     q = as_array(queries, "queries", shape=(None, data.shape[1]), dtype=np.float32)
     check_int(k, "k", min_value=1, max_value=data.shape[0])

@@ -21,9 +21,16 @@ Pipeline (`segment`):
    batched in JAX); the component mask is resampled likewise (kept where > 0.5) so that `hog` can
    exclude the background.
 A frame without skin gives found = False, a zero image, an all-False mask and box (-1, -1, -1, -1).
+
+Persistence (`save_skin_model` / `load_skin_model`): a `SkinModel` is its structure (`SkinStructure`:
+the components of each mixture, the chroma space) plus its arrays, stored by `lfd_common.save_model`
+under the kind "hog_jax.SkinModel"; loading checks every array's shape against the structure, that
+every covariance is positive definite (its Cholesky factor lower triangular with a positive diagonal)
+and that each mixture's weights sum to 1.
 """
 from __future__ import annotations
 
+import dataclasses
 from functools import partial
 from pathlib import Path
 from typing import NamedTuple
@@ -32,11 +39,12 @@ import cv2
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int, Key, Real
 
-from lfd_common import as_array, check_int, check_real, load_arrays, save_arrays
+from lfd_common import ArraySpec, ModelCodec, as_array, check_choice, check_int, check_real, load_model, save_model
 
 __all__ = [
-    "GMM", "Segmentation", "SkinModel", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
+    "GMM", "Segmentation", "SkinModel", "SkinStructure", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
     "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
 ]
 
@@ -44,9 +52,9 @@ __all__ = [
 class GMM(NamedTuple):
     """Gaussian mixture: log_weights (G,), means (G, P), chols (G, P, P) lower Cholesky factors."""
 
-    log_weights: jax.Array
-    means: jax.Array
-    chols: jax.Array
+    log_weights: Float[Array, " G"]
+    means: Float[Array, "G P"]
+    chols: Float[Array, "G P P"]
 
 
 class SkinModel(NamedTuple):
@@ -54,7 +62,7 @@ class SkinModel(NamedTuple):
 
     skin: GMM
     background: GMM
-    threshold: jax.Array
+    threshold: Float[Array, ""]
 
 
 class Segmentation(NamedTuple):
@@ -62,14 +70,14 @@ class Segmentation(NamedTuple):
     boxes (B, 4) int32 (top, left, bottom, right), bottom/right exclusive, in frame pixels (may reach
     outside the frame, which is padded with background); skin (B, H, W) bool, the filtered skin mask."""
 
-    images: jax.Array
-    masks: jax.Array
-    found: jax.Array
-    boxes: jax.Array
-    skin: jax.Array
+    images: Float[Array, "B S S"]
+    masks: Bool[Array, "B S S"]
+    found: Bool[Array, " B"]
+    boxes: Int[Array, "B 4"]
+    skin: Bool[Array, "B H W"]
 
 
-def rgb_to_chroma(rgb) -> jax.Array:
+def rgb_to_chroma(rgb: Real[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 2"]:
     """(..., 3) RGB in [0, 255] -> (..., 2) (Cr, Cb) / 255 of BT.601 YCrCb (OpenCV's coefficients)."""
     rgb = jnp.asarray(rgb, jnp.float32)
     r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
@@ -94,7 +102,7 @@ def _whiten(chols, diff) -> jax.Array:
     return jnp.stack(columns, axis=-1)
 
 
-def gmm_log_prob(gmm: GMM, x) -> jax.Array:
+def gmm_log_prob(gmm: GMM, x: Float[ArrayLike, "*batch P"]) -> Float[Array, "*batch"]:
     """log p(x) under the mixture for x (..., P) -> (...)."""
     x = jnp.asarray(x)
     P = x.shape[-1]
@@ -129,7 +137,8 @@ def _em(key, x, n_components: int, n_iter: int, reg):
     return jax.lax.fori_loop(0, n_iter, step, gmm)
 
 
-def fit_gmm(key: jax.Array, x, n_components: int = 4, n_iter: int = 100, reg: float = 1e-5) -> GMM:
+def fit_gmm(key: Key[Array, ""], x: Float[ArrayLike, "N P"], n_components: int = 4, n_iter: int = 100,
+            reg: float = 1e-5) -> GMM:
     """Fit a full-covariance GMM to x (N, P) by EM (`n_iter` iterations, means initialised at random
     data points, covariances at the data covariance, `reg` added to every covariance's diagonal)."""
     x = as_array(x, "x", ndim=2, dtype=np.float32)
@@ -139,8 +148,9 @@ def fit_gmm(key: jax.Array, x, n_components: int = 4, n_iter: int = 100, reg: fl
     return _em(key, jnp.asarray(x), G, jnp.int32(n_iter), jnp.float32(reg))
 
 
-def fit_skin_model(key: jax.Array, skin_rgb, background_rgb, n_components: int = 4,
-                   n_background: int = 4, threshold: float = 0.0, n_iter: int = 100) -> SkinModel:
+def fit_skin_model(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], background_rgb: Real[ArrayLike, "M 3"],
+                   n_components: int = 4, n_background: int = 4, threshold: float = 0.0,
+                   n_iter: int = 100) -> SkinModel:
     """Fit skin and background GMMs on chroma from labelled RGB pixels (N, 3) and (M, 3) in [0, 255]."""
     skin = as_array(skin_rgb, "skin_rgb", shape=(None, 3), min_value=0, max_value=255)
     bg = as_array(background_rgb, "background_rgb", shape=(None, 3), min_value=0, max_value=255)
@@ -157,7 +167,7 @@ def _log_ratio(model: SkinModel, rgb):
     return gmm_log_prob(model.skin, c) - gmm_log_prob(model.background, c)
 
 
-def skin_log_ratio(model: SkinModel, rgb) -> jax.Array:
+def skin_log_ratio(model: SkinModel, rgb: Real[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:
     """log p_skin - log p_background per pixel of RGB values (..., 3) in [0, 255]."""
     arr = as_array(rgb, "rgb", dtype=np.float32, min_value=0, max_value=255)
     if arr.shape[-1] != 3:
@@ -166,7 +176,7 @@ def skin_log_ratio(model: SkinModel, rgb) -> jax.Array:
 
 
 @partial(jax.jit, static_argnames=("times",))
-def median3(mask, times: int = 3) -> jax.Array:
+def median3(mask: Bool[ArrayLike, "B H W"], times: int = 3) -> Bool[Array, "B H W"]:
     """3 x 3 median filter of binary masks (B, H, W), applied `times` times (replicated borders)."""
     def once(m, _):
         p = jnp.pad(m.astype(jnp.int32), ((0, 0), (1, 1), (1, 1)), mode="edge")
@@ -212,8 +222,8 @@ def _crops(gray, comp, top, left, side, size: int):
     return jax.vmap(one)(gray, comp, top, left, side)
 
 
-def segment(model: SkinModel, frames, seed_points=None, out_size: int = 64, margin: float = 0.1,
-            threshold: float | None = None) -> Segmentation:
+def segment(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points: Real[ArrayLike, "B 2"] | None = None,
+            out_size: int = 64, margin: float = 0.1, threshold: float | None = None) -> Segmentation:
     """Segment the hand in each RGB frame (B, H, W, 3) (uint8 or real in [0, 255]).
 
     seed_points: optional (B, 2) (row, col) per frame: the component containing the seed, or the one
@@ -271,22 +281,64 @@ def segment(model: SkinModel, frames, seed_points=None, out_size: int = 64, marg
     return Segmentation(imgs, masks, f, jnp.asarray(boxes), jnp.asarray(skin))
 
 
-_KIND = "hog_jax.SkinModel"
+# ------------------------------------------------------------------------------------ persistence
+_CHROMA = "CrCb/255 BT.601"  # what `rgb_to_chroma` computes; a model of another colour space would not fit
+_P = 2  # chroma channels
+
+
+@dataclasses.dataclass(frozen=True)
+class SkinStructure:
+    """What defines a `SkinModel`: the number of components of the skin and of the background mixture,
+    and the colour space the mixtures live in (P = 2 chroma channels)."""
+
+    n_skin_components: int
+    n_background_components: int
+    chroma: str = _CHROMA
+
+    def __post_init__(self):
+        check_int(self.n_skin_components, "n_skin_components", min_value=1)
+        check_int(self.n_background_components, "n_background_components", min_value=1)
+        check_choice(self.chroma, "chroma", (_CHROMA,))
+
+
+def _structure_of(model: SkinModel) -> SkinStructure:
+    return SkinStructure(int(model.skin.log_weights.shape[0]), int(model.background.log_weights.shape[0]))
+
+
+def _gmm_template(n: int) -> GMM:
+    return GMM(ArraySpec((n,)), ArraySpec((n, _P)), ArraySpec((n, _P, _P)))
+
+
+def _template(structure: SkinStructure) -> SkinModel:
+    return SkinModel(_gmm_template(structure.n_skin_components), _gmm_template(structure.n_background_components),
+                     ArraySpec(()))
+
+
+def _check(model: SkinModel) -> None:
+    """Positive-definite covariances (lower-triangular Cholesky factors, positive diagonal) and
+    normalised mixture weights; ValueError naming the mixture otherwise."""
+    for name, gmm in (("skin", model.skin), ("background", model.background)):
+        chols = np.asarray(gmm.chols)
+        if np.any(np.triu(chols, 1) != 0) or np.any(np.diagonal(chols, axis1=-2, axis2=-1) <= 0):
+            raise ValueError(f"{name}: covariances not positive definite (chols must be lower triangular "
+                             "with a positive diagonal)")
+        total = float(np.exp(np.asarray(gmm.log_weights, np.float64)).sum())
+        if abs(total - 1.0) > 1e-3:
+            raise ValueError(f"{name}: mixture weights sum to {total:.6g}, expected 1")
+
+
+SKIN_CODEC = ModelCodec(kind="hog_jax.SkinModel", model_type=SkinModel, structure_type=SkinStructure,
+                        structure_of=_structure_of, template=_template, check=_check)
 
 
 def save_skin_model(path: str | Path, model: SkinModel) -> Path:
-    """Write a `SkinModel` to an .npz (lfd_common format, kind "hog_jax.SkinModel")."""
-    arrays = {f"{part}_{field}": np.asarray(getattr(getattr(model, part), field))
-              for part in ("skin", "background") for field in GMM._fields}
-    arrays["threshold"] = np.asarray(model.threshold)
-    return save_arrays(path, _KIND, arrays, {"chroma": "CrCb/255 BT.601"})
+    """Write a `SkinModel` (its `SkinStructure` and arrays) to `path` (.npz appended when missing) and
+    return the path written; the model is checked as `load_skin_model` checks it."""
+    return save_model(path, model, [SKIN_CODEC])
 
 
 def load_skin_model(path: str | Path) -> SkinModel:
-    """Read a `SkinModel` written by `save_skin_model` (clear ValueError on a wrong or corrupt file)."""
-    arrays, _, _ = load_arrays(path, _KIND)
-    try:
-        parts = {p: GMM(*(jnp.asarray(arrays[f"{p}_{f}"]) for f in GMM._fields)) for p in ("skin", "background")}
-        return SkinModel(parts["skin"], parts["background"], jnp.asarray(arrays["threshold"]))
-    except KeyError as err:
-        raise ValueError(f"path: {path} lacks the array {err}") from err
+    """Read a `SkinModel` written by `save_skin_model`. FileNotFoundError for a missing file; ValueError
+    naming the file for a corrupt one, another kind, or arrays that disagree with the stored structure,
+    covariances that are not positive definite or weights that do not sum to 1."""
+    return load_model(path, [SKIN_CODEC])

@@ -21,9 +21,12 @@ from lfd_common.persist import (
     structure_to_json,
     write_npz,
 )
+from lfd_common.rotations import (axis_angle_to_matrix, euler_zyx_to_quat, matrix_to_quat, quat_to_euler_zyx,
+                                 quat_to_matrix)
 from lfd_common.validate import as_array, check_choice, check_int, check_real
 
 __all__ = [
+    "axis_angle_to_matrix", "euler_zyx_to_quat", "matrix_to_quat", "quat_to_euler_zyx", "quat_to_matrix",
     "NEG_INF", "SCHEMA_VERSION", "ArraySpec", "ModelCodec", "as_array", "cache_dir", "check_choice",
     "check_int", "check_real", "enable_compilation_cache", "float_dtype", "frame_mask", "load_arrays",
     "load_model", "model_path", "pad_sequences", "read_file", "safe_log", "safe_logaddexp",

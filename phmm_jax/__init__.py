@@ -2,8 +2,11 @@
 
 Shapes: B sequences, T frames, D features, N states, P pseudo-states per state, d parameters.
 
+A model is a static structure plus a parameters pytree; how it is fitted (FitOptions) is an argument
+of the fit, never part of the model.
+
 Models
-    HMMConfig(n_states, min_duration, max_duration, covariance_type, reg_covar, ...)   structure + EM settings
+    HMMConfig(n_states, min_duration, max_duration, covariance_type)   the static structure
     HMM            means (N, D), covariances (N, D, D), log_cont / log_exit (N, P), config
     PHMM           local HMMs stacked over the C grid corners, grid_shape (g_1, ..., g_d)
     expand_to_dense(hmm) -> DenseHMM   the equivalent ordinary HMM over N·P pseudo-states
@@ -14,10 +17,11 @@ Inference (X: (B, T, D) with lengths (B,), a (T, D) sequence, or a list of (T_b,
     messages(hmm, X, lengths)        -> Messages(log_alpha, log_beta (B, T, N, P), loglik (B,))
     viterbi(hmm, X, lengths)         -> (states (B, T), log-probability (B,))
 
-Training
-    fit_hmm(X, lengths, config, init=None, freeze_means_after=None)   Baum–Welch EM
-    fit_hmm_gradient(X, lengths, config, init=None, n_steps=200)      optax L-BFGS on the NLL
-    fit_phmm(groups, grid_shape, config)                              synchronised local training
+Training (options: FitOptions(max_iter, tol, reg_covar, duration_pseudocount, freeze_means_after,
+          local_max_iter, gradient_steps, optimizer))
+    fit_hmm(X, lengths, config, init=None, *, options)             Baum–Welch EM
+    fit_hmm_gradient(X, lengths, config, init=None, *, options)    optax (default L-BFGS) on the NLL
+    fit_phmm(groups, grid_shape, config, *, options)               synchronised local training
 
 Parametric HMMs
     phmm_log_likelihood(phmm, X, phi, lengths) -> (B,), differentiable in phi
@@ -30,19 +34,21 @@ Retargeting to a robot arm (Humanoids 2008 §IV-B, eqs. 10-24)
     solve_arm(q, r, o, upper_arm, forearm)  the same for elbow/hand/finger vectors; MARKER_ORDER: marker layout
 
 Persistence
-    save(path, model), load(path)
+    save(path, model), load(path)   structure as JSON + arrays, checked against each other on load
 """
-from phmm_jax.api import Posteriors, log_likelihood, messages, posteriors, viterbi
+from phmm_jax.api import Messages, Posteriors, log_likelihood, messages, posteriors, viterbi
 from phmm_jax.em import fit_hmm
 from phmm_jax.gradfit import fit_hmm_gradient
-from phmm_jax.io import load, save
+from phmm_jax.io import PHMMStructure, load, save
 from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
+from phmm_jax.options import FitOptions
 from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
 from phmm_jax.retarget import MARKER_ORDER, ArmAngles, retarget, solve_arm
 from phmm_jax.synthesis import synthesize, target_to_phi
 
 __all__ = [
-    "ArmAngles", "HMM", "MARKER_ORDER", "PHMM", "DenseHMM", "HMMConfig", "Posteriors", "Recognition",
+    "ArmAngles", "FitOptions", "HMM", "MARKER_ORDER", "Messages", "PHMM", "PHMMStructure", "DenseHMM",
+    "HMMConfig", "Posteriors", "Recognition",
     "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
     "interpolate", "load", "log_likelihood", "messages", "phmm_log_likelihood", "posteriors",
     "recognize", "retarget", "save", "solve_arm", "synthesize", "target_to_phi", "viterbi",

@@ -1,95 +1,47 @@
-"""Batched inference on padded sequences: the public functions check their input, then call the
-jitted batch routines of `phmm_jax.inference` (which work batch-last) and return batch-first arrays.
+"""Batched inference on user sequences: check the input, pad it, run the jitted kernel of
+`phmm_jax._batched`, return batch-first jax arrays.
 
-Shapes: B sequences, T frames (padded), D features, N states, P pseudo-states per state.
+X is a (B, T, D) array padded with `lengths` (B,), one (T, D) sequence, or a list of (T_b, D)
+arrays. Every function raises `ValueError` naming the argument for NaN/inf within the lengths, a
+wrong D, an empty batch, lengths outside [1, T], or a sequence shorter (or longer) than any path the
+model allows. Shapes: B sequences, T frames (padded), D features, N states, P pseudo-states per state.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from jaxtyping import Array, Float, Int
 
-import jax
-import jax.numpy as jnp
+from phmm_jax._batched import (
+    Messages,
+    Posteriors,
+    batch_log_likelihood,
+    batch_messages,
+    batch_posteriors,
+    batch_viterbi,
+    checked_batch,
+)
+from phmm_jax.data import Lengths, Sequences
+from phmm_jax.model import HMM
 
-from phmm_jax import inference
-from phmm_jax.data import check_feasible, pad_sequences, to_device
-from phmm_jax.emissions import gaussian_log_density_columns
-from phmm_jax.model import HMM, reachable_states
-
-
-def emission_columns(hmm: HMM, X, all_states: bool = False):
-    """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`; -inf for the
-    states no path can be in at that frame (`model.reachable_states`), unless `all_states`."""
-    reachable = None if all_states else reachable_states(hmm.config, X.shape[1])
-    return gaussian_log_density_columns(X, hmm.means, hmm.covariances, reachable)
-
-
-@jax.jit
-def batch_log_likelihood(hmm: HMM, X, lengths):
-    """Jitted core of `log_likelihood` on checked, padded device arrays."""
-    return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
+__all__ = ["Messages", "Posteriors", "batch_log_likelihood", "batch_messages", "batch_posteriors",
+           "batch_viterbi", "log_likelihood", "messages", "posteriors", "viterbi"]
 
 
-def _batch_first(a):
-    """(T, ..., B) -> (B, T, ...)."""
-    return jnp.moveaxis(a, -1, 0)
+def log_likelihood(hmm: HMM, X: Sequences, lengths: Lengths = None) -> Float[Array, " B"]:
+    """log p(x | hmm) per sequence (B,), the end constraint (exit from the last state) included."""
+    return batch_log_likelihood(hmm, *checked_batch(hmm, X, lengths))
 
 
-@jax.jit
-def batch_messages(hmm: HMM, X, lengths) -> inference.Messages:
-    # All states: log_beta is also defined for states the path cannot have reached.
-    log_b = emission_columns(hmm, X, all_states=True)
-    log_alpha, log_beta, loglik = inference.forward_backward(inference.chain(hmm), log_b, lengths)
-    return inference.Messages(_batch_first(log_alpha), _batch_first(log_beta), loglik)
+def messages(hmm: HMM, X: Sequences, lengths: Lengths = None) -> Messages:
+    """Forward and backward log-messages, each (B, T, N, P), and log-likelihoods (B,) (see `Messages`)."""
+    return batch_messages(hmm, *checked_batch(hmm, X, lengths))
 
 
-class Posteriors(NamedTuple):
-    """state: (B, T, N) P(state i at t | x). pseudo: (B, T, N, P) the same per pseudo-state (how
-    long the path has been in the state). loglik: (B,). Padded frames have zero probability."""
-
-    state: jnp.ndarray
-    pseudo: jnp.ndarray
-    loglik: jnp.ndarray
+def posteriors(hmm: HMM, X: Sequences, lengths: Lengths = None) -> Posteriors:
+    """State (B, T, N) and pseudo-state (B, T, N, P) posteriors and log-likelihoods (B,) (see `Posteriors`)."""
+    return batch_posteriors(hmm, *checked_batch(hmm, X, lengths))
 
 
-@jax.jit
-def batch_posteriors(hmm: HMM, X, lengths) -> Posteriors:
-    state, pseudo, loglik = inference.posteriors(inference.chain(hmm), emission_columns(hmm, X), lengths)
-    return Posteriors(_batch_first(state), jnp.swapaxes(pseudo, 0, 1), loglik)
-
-
-@jax.jit
-def batch_viterbi(hmm: HMM, X, lengths):
-    states, pseudo, score = inference.viterbi(inference.chain(hmm), emission_columns(hmm, X), lengths)
-    return states.T, pseudo.T, score
-
-
-def _checked(hmm: HMM, X, lengths):
-    X, lengths = pad_sequences(X, lengths, dim=hmm.dim)
-    check_feasible(hmm.config, lengths)
-    return to_device(X, lengths)
-
-
-def log_likelihood(hmm: HMM, X, lengths=None):
-    """log p(x | hmm) per sequence (B,), the end constraint included.
-
-    X: (B, T, D) padded with `lengths` (B,), a (T, D) sequence, or a list of (T_b, D) arrays.
-    Raises `ValueError` for NaN/inf within the lengths, a wrong D, an empty batch, lengths outside
-    [1, T], or a sequence shorter (or longer) than any path the model allows.
-    """
-    return batch_log_likelihood(hmm, *_checked(hmm, X, lengths))
-
-
-def messages(hmm: HMM, X, lengths=None) -> inference.Messages:
-    """Forward and backward log-messages, each (B, T, N, P), and log-likelihoods (B,)."""
-    return batch_messages(hmm, *_checked(hmm, X, lengths))
-
-
-def posteriors(hmm: HMM, X, lengths=None) -> Posteriors:
-    """State and pseudo-state posteriors and log-likelihoods (see `Posteriors`)."""
-    return batch_posteriors(hmm, *_checked(hmm, X, lengths))
-
-
-def viterbi(hmm: HMM, X, lengths=None):
+def viterbi(hmm: HMM, X: Sequences, lengths: Lengths = None) -> tuple[Int[Array, "B T"], Float[Array, " B"]]:
     """Most probable path: (states (B, T) int, log-probabilities (B,)); states are -1 on padding."""
-    states, _, score = batch_viterbi(hmm, *_checked(hmm, X, lengths))
+    states, _, score = batch_viterbi(hmm, *checked_batch(hmm, X, lengths))
     return states, score

@@ -1,59 +1,25 @@
-"""Sequences in, checked and padded: the boundary between user data and jitted code."""
+"""Sequences in, checked and padded: the boundary between user data and jitted code.
+
+Padding and the dtype policy are `lfd_common.pad_sequences`'s (the compute dtype, values that
+overflow it rejected); what is specific to these models lives here: a sequence must fit the paths
+the structure allows (`check_feasible`), and PHMM training stacks one group of sequences per grid
+corner (`stack_groups`).
+"""
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import ArrayLike, Float, Int
 
-from lfd_common import as_array
+from lfd_common import float_dtype, pad_sequences
 from phmm_jax.model import HMMConfig
 
-
-def float_dtype():
-    """The floating dtype JAX computes in now (float64 under `jax.enable_x64`)."""
-    return jnp.result_type(float)
-
-
-def pad_sequences(X, lengths=None, dim: int | None = None, name: str = "X") -> tuple[np.ndarray, np.ndarray]:
-    """Check sequences and return them padded: X (B, T, D) float64 and lengths (B,) int32.
-
-    X: a (B, T, D) array (with `lengths` for unequal lengths, default all T), a single (T, D)
-    sequence, or a list of (T_b, D) arrays. Padded frames are zeroed (they may hold NaN on input:
-    only frames t < length are checked). `dim`: the expected D.
-    """
-    if isinstance(X, Sequence) and not isinstance(X, np.ndarray) and len(X) and np.ndim(X[0]) == 2:
-        if lengths is not None:
-            raise ValueError("lengths: give either a list of sequences or a padded array with lengths, not both")
-        seqs = [as_array(x, f"{name}[{b}]", ndim=2) for b, x in enumerate(X)]
-        widths = {s.shape[1] for s in seqs}
-        if len(widths) != 1:
-            raise ValueError(f"{name}: sequences have different feature dimensions {sorted(widths)}")
-        lengths = np.array([len(s) for s in seqs], np.int32)
-        padded = np.zeros((len(seqs), int(lengths.max()), widths.pop()))
-        for b, s in enumerate(seqs):
-            padded[b, : len(s)] = s
-        X = padded
-    else:
-        X = as_array(X, name, ndim=(2, 3), finite=False, nonempty=False)
-        if X.ndim == 2:
-            X = X[None]
-    batch, n_frames, n_dims = X.shape
-    if batch == 0:
-        raise ValueError(f"{name}: the batch is empty")
-    if n_frames == 0 or n_dims == 0:
-        raise ValueError(f"{name}: must not be empty, got shape {X.shape}")
-    if dim is not None and n_dims != dim:
-        raise ValueError(f"{name}: expected feature dimension D={dim}, got {n_dims}")
-    if lengths is None:
-        lengths = np.full(batch, n_frames, np.int32)
-    else:
-        lengths = as_array(lengths, "lengths", shape=(batch,), dtype=np.int32, min_value=1, max_value=n_frames)
-    valid = np.arange(n_frames)[None, :] < lengths[:, None]
-    if not np.all(np.isfinite(X[valid])):
-        bad = int(np.sum(~np.isfinite(X[valid])))
-        raise ValueError(f"{name}: contains {bad} NaN or infinite value(s) within the sequence lengths")
-    return np.where(valid[..., None], X, 0.0), lengths
+# What the public functions accept as sequences (annotations only; `pad_sequences` checks them):
+# a padded (B, T, D) array with lengths, one (T, D) sequence, or a list of (T_b, D) arrays.
+Sequences = Float[ArrayLike, "B T D"] | Float[ArrayLike, "T D"] | Sequence[Float[ArrayLike, "_T D"]]
+Lengths = Int[ArrayLike, " B"] | None
 
 
 def check_feasible(config: HMMConfig, lengths: np.ndarray, name: str = "lengths") -> None:
@@ -70,6 +36,7 @@ def check_feasible(config: HMMConfig, lengths: np.ndarray, name: str = "lengths"
 
 
 def to_device(X: np.ndarray, lengths: np.ndarray):
+    """Padded numpy (X, lengths) -> jax arrays in the compute dtype and int32."""
     return jnp.asarray(X, float_dtype()), jnp.asarray(lengths, jnp.int32)
 
 
@@ -85,9 +52,9 @@ def stack_groups(groups: Sequence, dim: int | None, name: str):
     n_dims = {x.shape[2] for x, _ in padded}
     if len(n_dims) != 1:
         raise ValueError(f"{name}: groups have different feature dimensions {sorted(n_dims)}")
-    X = np.zeros((len(padded), n_seq, n_frames, n_dims.pop()))
+    X = np.zeros((len(padded), n_seq, n_frames, n_dims.pop()), float_dtype())
     lengths = np.zeros((len(padded), n_seq), np.int32)
-    weights = np.zeros((len(padded), n_seq))
+    weights = np.zeros((len(padded), n_seq), float_dtype())
     for k, (x, ln) in enumerate(padded):
         fill = np.arange(n_seq) % x.shape[0]
         X[k, :, : x.shape[1]] = x[fill]

@@ -1,8 +1,10 @@
 """Baum–Welch EM for left-right (explicit-duration) Gaussian HMMs, batched over unequal lengths.
 
 One EM iteration is one jitted call (`em_step`) over the whole padded batch; the Python loop in
-`fit_hmm` only iterates EM and checks convergence. Shapes: B sequences, T frames, D features,
-N states, P pseudo-states.
+`run_em` only iterates EM and checks convergence on the host, so the stopping rule's tolerance never
+enters a trace. The real-valued fit options (`reg_covar`, `duration_pseudocount`) are traced
+arguments of the jitted steps: changing them does not recompile. Shapes: B sequences, T frames,
+D features, N states, P pseudo-states.
 """
 from __future__ import annotations
 
@@ -13,21 +15,26 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxtyping import Array, Float
+
+from lfd_common import pad_sequences
 from phmm_jax import inference
-from phmm_jax.api import emission_columns
-from phmm_jax.data import check_feasible, pad_sequences, to_device
+from phmm_jax._batched import emission_columns
+from phmm_jax.data import Lengths, Sequences, check_feasible, to_device
 from phmm_jax.model import HMM, HMMConfig, transitions_from_counts
+from phmm_jax.options import FitOptions, check_options
 
 # A state whose total responsibility is below this keeps its previous Gaussian (and is reported).
 _MIN_RESPONSIBILITY = 1e-6
 
 
-def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, update_means: bool = True):
+def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, reg_covar, update_means: bool = True):
     """Weighted Gaussian estimates from responsibilities gamma (T, N, B) and frames X (B, T, D).
 
-    Returns (means (N, D), covariances (N, D, D), number of starved states). A starved state (total
-    responsibility below 1e-6) keeps `previous`'s Gaussian (identity covariance when None) instead of
-    producing NaN. `update_means=False` keeps `previous.means` (synchronised local training).
+    Returns (means (N, D), covariances (N, D, D), number of starved states); `reg_covar` is added to
+    every covariance diagonal. A starved state (total responsibility below 1e-6) keeps `previous`'s
+    Gaussian (identity covariance when None) instead of producing NaN. `update_means=False` keeps
+    `previous.means` (synchronised local training, PHMM eq. 2).
     """
     dim = X.shape[-1]
     weight = jnp.sum(gamma, axis=(0, 2))  # (N,)
@@ -44,7 +51,7 @@ def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, update_me
         scatter = jnp.einsum("tnb,btnd,btne->nde", gamma, centred, centred)
     else:
         scatter = jnp.einsum("tnb,btnd->nd", gamma, centred * centred)[:, :, None] * eye
-    covariances = scatter / safe_weight[:, None, None] + config.reg_covar * eye
+    covariances = scatter / safe_weight[:, None, None] + reg_covar * eye
     fallback_cov = jnp.broadcast_to(eye, covariances.shape) if previous is None else previous.covariances
     covariances = jnp.where(starved[:, None, None], fallback_cov, covariances)
     return means, covariances, jnp.sum(starved)
@@ -57,14 +64,15 @@ def sufficient_statistics(hmm: HMM, X, lengths, weights):
 
 
 @partial(jax.jit, static_argnames=("update_means",))
-def em_step(hmm: HMM, X, lengths, weights, update_means: bool = True):
+def em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True):
     """One EM iteration. Returns (new HMM, weighted mean log-likelihood per frame of `hmm`, starved).
 
     weights: (B,) per-sequence weights (0 for padding sequences, 1 otherwise).
+    reg_covar, duration_pseudocount: the M step's regularisation (`FitOptions`), traced.
     """
     gamma, cont, exits, loglik = sufficient_statistics(hmm, X, lengths, weights)
-    means, covariances, starved = gaussian_m_step(hmm.config, gamma, X, hmm, update_means)
-    log_cont, log_exit = transitions_from_counts(hmm.config, cont, exits, hmm)
+    means, covariances, starved = gaussian_m_step(hmm.config, gamma, X, hmm, reg_covar, update_means)
+    log_cont, log_exit = transitions_from_counts(hmm.config, cont, exits, duration_pseudocount, hmm)
     n_frames = jnp.sum(weights * lengths)
     new = hmm.replace(means=means, covariances=covariances, log_cont=log_cont, log_exit=log_exit)
     return new, jnp.sum(weights * loglik) / n_frames, starved
@@ -79,15 +87,14 @@ def equal_segmentation(lengths, n_frames: int, n_states: int, dtype=jnp.float32)
 
 
 @partial(jax.jit, static_argnames=("config",))
-def initial_hmm(config: HMMConfig, X, lengths, weights) -> HMM:
+def initial_hmm(config: HMMConfig, X, lengths, weights, reg_covar, duration_pseudocount) -> HMM:
     """A left-to-right start: Gaussians from an equal segmentation in time; uniform duration
     hazards (explicit durations) or self-loops matching the mean segment length (classical)."""
     gamma = equal_segmentation(lengths, X.shape[1], config.n_states, X.dtype) * weights
-    means, covariances, _ = gaussian_m_step(config, gamma, X, None)
+    means, covariances, _ = gaussian_m_step(config, gamma, X, None, reg_covar)
     if config.explicit_duration:
-        log_cont, log_exit = transitions_from_counts(
-            config, jnp.zeros((config.n_states, config.n_pseudo), X.dtype),
-            jnp.zeros((config.n_states, config.n_pseudo), X.dtype))
+        zeros = jnp.zeros((config.n_states, config.n_pseudo), X.dtype)
+        log_cont, log_exit = transitions_from_counts(config, zeros, zeros, duration_pseudocount)
     else:
         mean_length = jnp.sum(weights * lengths) / jnp.sum(weights)
         extra = jnp.maximum(mean_length / config.n_states - config.min_duration, 1e-3)  # mean self-loops
@@ -99,22 +106,24 @@ def initial_hmm(config: HMMConfig, X, lengths, weights) -> HMM:
     return HMM(means, covariances, log_cont, log_exit, config)
 
 
-def run_em(hmm: HMM, X, lengths, weights, n_iter: int, tol: float, freeze_means_after: int | None = None,
-           step=em_step):
-    """Iterate `step` until the mean per-frame log-likelihood improves by less than `tol`.
+def run_em(hmm: HMM, X, lengths, weights, options: FitOptions, max_iter: int,
+           freeze_means_after: int | None = None, step=em_step):
+    """Iterate `step` at most `max_iter` times, until the mean per-frame log-likelihood improves by
+    less than `options.tol`; the M step uses `options.reg_covar` and `options.duration_pseudocount`.
 
     Returns (HMM, history of mean per-frame log-likelihoods). Warns if a state was starved.
     `step` may be a vmapped `em_step` (several models at once): convergence then needs all of them.
     """
     history = []
     starved_total = 0
-    for iteration in range(n_iter):
+    for iteration in range(max_iter):
         update_means = freeze_means_after is None or iteration < freeze_means_after
-        hmm, mean_ll, starved = step(hmm, X, lengths, weights, update_means=update_means)
+        hmm, mean_ll, starved = step(hmm, X, lengths, weights, options.reg_covar, options.duration_pseudocount,
+                                     update_means=update_means)
         mean_ll = np.asarray(mean_ll)
         starved_total += int(np.sum(starved))
         history.append(mean_ll)
-        if len(history) > 1 and np.all(np.abs(history[-1] - history[-2]) < tol):
+        if len(history) > 1 and np.all(np.abs(history[-1] - history[-2]) < options.tol):
             break
     if starved_total:
         warnings.warn(f"EM: {starved_total} state update(s) had no responsibility; their previous "
@@ -123,23 +132,35 @@ def run_em(hmm: HMM, X, lengths, weights, n_iter: int, tol: float, freeze_means_
     return hmm, np.stack(history) if history else np.zeros((0,))
 
 
-def fit_hmm(X, lengths=None, config: HMMConfig = HMMConfig(), init: HMM | None = None,
-            freeze_means_after: int | None = None, return_history: bool = False):
-    """Fit an HMM by Baum–Welch EM.
-
-    X: (B, T, D) padded with `lengths` (B,), a (T, D) sequence or a list of (T_b, D) arrays.
-    config: the structure (states, durations, covariance type) and EM settings.
-    init: start from this HMM (its config is used) instead of an equal segmentation in time.
-    freeze_means_after: keep the means fixed after this many iterations (1 = the synchronised local
-        training of PHMM §III-B1, eq. 2).
-    Returns the fitted `HMM` (and the per-iteration mean log-likelihood per frame if asked).
-    """
+def prepare_fit(X, lengths, config: HMMConfig, init: HMM | None, options: FitOptions):
+    """The common start of every HMM fit: check `options` and the sequences, pad them to device
+    arrays, and return (X, lengths, weights (B,) of ones, the starting HMM: `init`, or the equal
+    segmentation in time of `config` when None)."""
+    check_options(options)
     if init is not None:
         config = init.config
     X, lengths = pad_sequences(X, lengths, dim=None if init is None else init.dim)
     check_feasible(config, lengths)
     X, lengths = to_device(X, lengths)
     weights = jnp.ones(X.shape[0], X.dtype)
-    hmm = initial_hmm(config, X, lengths, weights) if init is None else init
-    hmm, history = run_em(hmm, X, lengths, weights, config.n_iter, config.tol, freeze_means_after)
-    return (hmm, history) if return_history else hmm
+    if init is None:
+        init = initial_hmm(config, X, lengths, weights, options.reg_covar, options.duration_pseudocount)
+    return X, lengths, weights, init
+
+
+def fit_hmm(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig(), init: HMM | None = None,
+            *, options: FitOptions = FitOptions(), return_history: bool = False
+            ) -> HMM | tuple[HMM, Float[Array, " I"]]:
+    """Fit an HMM by Baum–Welch EM on the pseudo-state chains: E step by
+    `inference.expected_statistics`, M step in closed form (weighted Gaussians, normalised
+    continue/exit counts, so forbidden transitions stay exactly -inf).
+
+    X: (B, T, D) padded with `lengths` (B,), a (T, D) sequence or a list of (T_b, D) arrays.
+    config: the structure (states, durations, covariance type).
+    init: start from this HMM (its config is used) instead of an equal segmentation in time.
+    options: `FitOptions` (max_iter, tol, reg_covar, duration_pseudocount, freeze_means_after).
+    Returns the fitted `HMM` (and the I per-iteration mean log-likelihoods per frame if asked).
+    """
+    X, lengths, weights, hmm = prepare_fit(X, lengths, config, init, options)
+    hmm, history = run_em(hmm, X, lengths, weights, options, options.max_iter, options.freeze_means_after)
+    return (hmm, jnp.asarray(history)) if return_history else hmm

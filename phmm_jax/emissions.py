@@ -7,8 +7,7 @@ import numpy as np
 from jax.scipy.linalg import solve_triangular
 
 # Frames per block of the whitening GEMM. The (block, N·D) product then stays in the CPU cache
-# before it is squared and reduced; one unblocked product over B·T = 28,000 frames spilled to
-# memory and took 3x longer (30 vs 9.5 ms for N = 20, D = 21 on 2 cores).
+# before it is squared and reduced; one unblocked product over all B·T frames spills to memory.
 _BLOCK = 512
 # Columns (frames x sequences) per product in the column layout: the (N·D, k·B) product then stays in
 # the CPU cache, as above.
@@ -20,8 +19,9 @@ def whitening(means, covariances):
     """Per-state whitening maps: W (N, D, D) with W Σ W^T = I, offsets W μ (N, D), log|Σ| (N,).
 
     Any leading batch axes are allowed. W = L^{-1} for the Cholesky factor L of Σ. The gradient is
-    closed-form and uses W only (`_whitening_bwd`): autodiff through LAPACK's batched Cholesky and
-    triangular solve, one small matrix at a time, cost a quarter of a PHMM recognition step.
+    closed-form and uses W only (`_whitening_bwd`), instead of autodiff through LAPACK's batched
+    Cholesky and triangular solve, one small matrix at a time (dear in PHMM recognition, which
+    differentiates through per-sequence covariances).
     """
     chol = jnp.linalg.cholesky(covariances)
     eye = jnp.broadcast_to(jnp.eye(means.shape[-1], dtype=means.dtype), covariances.shape)
@@ -57,8 +57,8 @@ def _affine_whitening(means, covariances):
     """[W | -W μ] (N, D, D+1), so that z = W (x - μ) is one product with [x; 1], and the
     normalising constants D log 2π + log|Σ| (N,).
 
-    Subtracting the offsets after the product instead made the gradient with respect to them a
-    reduction over frames that XLA:CPU computed 3x slower than this product's own gradient (PHMM
+    Subtracting the offsets after the product instead would make the gradient with respect to them a
+    reduction over frames, which XLA:CPU computes far slower than this product's own gradient (PHMM
     recognition differentiates through per-sequence means and covariances)."""
     inv_chol, offsets, log_det = whitening(means, covariances)
     dim = means.shape[-1]
@@ -99,8 +99,8 @@ def gaussian_log_density_columns(X, means, covariances, reachable=None):
 
     Frames are taken k at a time (k·B about `_COLUMNS` columns): one product [A_1; ...; A_N]
     (N·D x D+1) @ [x; 1] (D+1 x k·B) per block, and the sum of squares runs over rows, so every
-    operation is a contiguous vector operation over the batch. One frame per product (k = 1) took
-    20% longer on the benchmark workload (B = 280), from the loop's per-iteration cost.
+    operation is a contiguous vector operation over the batch. Several frames per product amortise
+    the loop's per-iteration cost over more work than one frame per product (k = 1) would.
 
     reachable: None, or (first, last) (T,) numpy, the only states whose densities are needed at each
     frame (`model.reachable_states`); a block then multiplies only the rows of its states, and every

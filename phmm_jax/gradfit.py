@@ -2,7 +2,9 @@
 
 Unconstrained parameters: means, Cholesky factors with log-diagonals (log-variances for "diag"),
 and duration logits (explicit durations: a softmax over d in [min, max]; classical: a self-loop
-logit). Forbidden transitions are built from masks, so they stay exactly -inf.
+logit). Forbidden transitions are built from masks, so they stay exactly -inf. The covariance floor
+`reg_covar` is part of the parametrisation (Σ = L Lᵀ + reg_covar I) and a traced argument; the
+optimiser (any `optax.GradientTransformation`, default L-BFGS) and the number of steps are static.
 """
 from __future__ import annotations
 
@@ -11,14 +13,15 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 import optax
+from jaxtyping import Array, Float
 
 from phmm_jax import inference
-from phmm_jax.api import emission_columns
-from phmm_jax.data import check_feasible, pad_sequences, to_device
-from phmm_jax.em import initial_hmm
+from phmm_jax._batched import emission_columns
+from phmm_jax.data import Lengths, Sequences
+from phmm_jax.em import prepare_fit
 from phmm_jax.model import HMM, HMMConfig, allowed_transitions, duration_log_probs, transitions_from_durations
+from phmm_jax.options import FitOptions
 
 
 class Unconstrained(NamedTuple):
@@ -27,15 +30,16 @@ class Unconstrained(NamedTuple):
     duration_logits: jnp.ndarray  # (N, P) explicit, (N,) self-loop logit classical
 
 
-def to_unconstrained(hmm: HMM) -> Unconstrained:
+def to_unconstrained(hmm: HMM, reg_covar) -> Unconstrained:
+    """The parameters of `hmm` whose `from_unconstrained` is `hmm` (up to 0.1% of the floor)."""
     config = hmm.config
-    reg = config.reg_covar * jnp.eye(hmm.dim, dtype=hmm.means.dtype)
+    reg = reg_covar * jnp.eye(hmm.dim, dtype=hmm.means.dtype)
     if config.covariance_type == "full":
         chol = jnp.linalg.cholesky(hmm.covariances - reg * 0.999)
         diag = jnp.diagonal(chol, axis1=-2, axis2=-1)
         factor = jnp.tril(chol, -1) + jax.vmap(jnp.diag)(jnp.log(diag))
     else:
-        factor = jnp.log(jnp.diagonal(hmm.covariances, axis1=-2, axis2=-1) - config.reg_covar * 0.999)
+        factor = jnp.log(jnp.diagonal(hmm.covariances, axis1=-2, axis2=-1) - reg_covar * 0.999)
     if config.explicit_duration:
         _, may_exit = allowed_transitions(config)
         logits = jnp.where(may_exit, duration_log_probs(hmm), 0.0)
@@ -44,7 +48,7 @@ def to_unconstrained(hmm: HMM) -> Unconstrained:
     return Unconstrained(hmm.means, factor, logits)
 
 
-def from_unconstrained(config: HMMConfig, params: Unconstrained) -> HMM:
+def from_unconstrained(config: HMMConfig, params: Unconstrained, reg_covar) -> HMM:
     dim = params.means.shape[-1]
     eye = jnp.eye(dim, dtype=params.means.dtype)
     if config.covariance_type == "full":
@@ -52,7 +56,7 @@ def from_unconstrained(config: HMMConfig, params: Unconstrained) -> HMM:
         covariances = chol @ jnp.swapaxes(chol, -1, -2)
     else:
         covariances = jnp.exp(params.cov_factor)[:, :, None] * eye
-    covariances = covariances + config.reg_covar * eye
+    covariances = covariances + reg_covar * eye
     if config.explicit_duration:
         _, may_exit = allowed_transitions(config)
         log_p = jax.nn.log_softmax(jnp.where(may_exit, params.duration_logits, -jnp.inf), axis=1)
@@ -66,18 +70,28 @@ def from_unconstrained(config: HMMConfig, params: Unconstrained) -> HMM:
     return HMM(params.means, covariances, log_cont, log_exit, config)
 
 
-def mean_negative_loglik(params: Unconstrained, config: HMMConfig, X, lengths):
+def mean_negative_loglik(params: Unconstrained, config: HMMConfig, X, lengths, reg_covar):
     """Negative log-likelihood per frame of the padded batch (the objective)."""
-    hmm = from_unconstrained(config, params)
+    hmm = from_unconstrained(config, params, reg_covar)
     loglik = inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
     return -jnp.sum(loglik) / jnp.sum(lengths)
 
 
-@partial(jax.jit, static_argnames=("config", "n_steps"))
-def _lbfgs(params: Unconstrained, config: HMMConfig, X, lengths, n_steps: int):
-    objective = partial(mean_negative_loglik, config=config, X=X, lengths=lengths)
-    solver = optax.lbfgs()
-    value_and_grad = optax.value_and_grad_from_state(objective)
+def _value_and_grad(objective, state):
+    """`optax.value_and_grad_from_state` for optimisers whose state carries the objective's value
+    and gradient (L-BFGS's line search computes them at the accepted point), else `jax.value_and_grad`."""
+    if optax.tree.get(state, "value") is not None and optax.tree.get(state, "grad") is not None:
+        return optax.value_and_grad_from_state(objective)
+    return lambda params, state: jax.value_and_grad(objective)(params)
+
+
+@partial(jax.jit, static_argnames=("config", "n_steps", "optimizer"))
+def _minimise(params: Unconstrained, config: HMMConfig, X, lengths, reg_covar, n_steps: int,
+              optimizer: optax.GradientTransformation):
+    objective = partial(mean_negative_loglik, config=config, X=X, lengths=lengths, reg_covar=reg_covar)
+    solver = optax.with_extra_args_support(optimizer)
+    state = solver.init(params)
+    value_and_grad = _value_and_grad(objective, state)
 
     def step(carry, _):
         params, state = carry
@@ -85,21 +99,22 @@ def _lbfgs(params: Unconstrained, config: HMMConfig, X, lengths, n_steps: int):
         updates, state = solver.update(grad, state, params, value=value, grad=grad, value_fn=objective)
         return (optax.apply_updates(params, updates), state), value
 
-    (params, _), values = jax.lax.scan(step, (params, solver.init(params)), None, length=n_steps)
+    (params, _), values = jax.lax.scan(step, (params, state), None, length=n_steps)
     return params, values
 
 
-def fit_hmm_gradient(X, lengths=None, config: HMMConfig = HMMConfig(), init: HMM | None = None,
-                     n_steps: int = 200, return_history: bool = False):
-    """Fit by L-BFGS (optax) on the mean negative log-likelihood per frame, from `init` or the
-    equal-segmentation start that EM uses. Returns the HMM (and the objective per step)."""
-    if init is not None:
-        config = init.config
-    X, lengths = pad_sequences(X, lengths, dim=None if init is None else init.dim)
-    check_feasible(config, lengths)
-    X, lengths = to_device(X, lengths)
-    if init is None:
-        init = initial_hmm(config, X, lengths, jnp.ones(X.shape[0], X.dtype))
-    params, values = _lbfgs(to_unconstrained(init), config, X, lengths, n_steps)
-    hmm = from_unconstrained(config, params)
-    return (hmm, np.asarray(values)) if return_history else hmm
+def fit_hmm_gradient(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig(),
+                     init: HMM | None = None, *, options: FitOptions = FitOptions(),
+                     return_history: bool = False) -> HMM | tuple[HMM, Float[Array, " S"]]:
+    """Fit by gradient descent on the mean negative log-likelihood per frame, from `init` or the
+    equal-segmentation start that EM uses.
+
+    options: `FitOptions` (optimizer, default optax L-BFGS; gradient_steps; reg_covar, and
+    duration_pseudocount for the start). Returns the HMM (and the objective at each of the S steps).
+    """
+    X, lengths, _, init = prepare_fit(X, lengths, config, init, options)
+    config = init.config
+    params, values = _minimise(to_unconstrained(init, options.reg_covar), config, X, lengths, options.reg_covar,
+                               options.gradient_steps, options.optimizer)
+    hmm = from_unconstrained(config, params, options.reg_covar)
+    return (hmm, values) if return_history else hmm

@@ -4,9 +4,11 @@ expected counts and Viterbi, all in log space, for a whole batch at once.
 Layout: the batch axis is *last* ("columns"). Emission log-densities per state are `log_b` (T, N, B),
 messages (T, N, P, B), and a `Chain` holds the transition log-probabilities (N, P, B), or (N, P, 1)
 when the whole batch shares one HMM. With B on the minor axis every operation of a time step is one
-contiguous vector operation over the batch; on a 2-core CPU this made the forward pass about 3x
-faster than `vmap` over single sequences (batch-major), whose reductions over the P = 4-6
-pseudo-states of a state vectorise poorly.
+contiguous vector operation over the batch, where `vmap` over single sequences (batch-major) would
+reduce over the few (P = 4-6) pseudo-states of a state, which vectorises poorly. The public API
+(`phmm_jax.api`) returns batch-first arrays; the column-layout results here have their own types
+(`ColumnPosteriors`, `ColumnMessages`). Log-space sums use `lfd_common`'s NaN-safe `safe_logsumexp`
+/ `safe_logaddexp`: -inf (unreachable pseudo-states, forbidden transitions) keeps finite gradients.
 
 A sequence of `length` L is padded to T frames: messages for t >= L are frozen, so padding changes
 neither values nor gradients. Shapes: T frames, N states, P pseudo-states per state, B sequences.
@@ -20,33 +22,8 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from phmm_jax.model import HMM, NEG_INF, HMMConfig
-
-
-def logsumexp(a, axis):
-    """log Σ exp(a) along `axis`, -inf for an all--inf slice, with finite gradients everywhere.
-
-    `jax.nn.logsumexp` has NaN gradients on all--inf slices (unreachable pseudo-states are common
-    early in a left-right model); the double `where` keeps them out (dynamax issue #99).
-    """
-    peak = jax.lax.stop_gradient(jnp.max(a, axis=axis, keepdims=True))
-    peak = jnp.where(jnp.isfinite(peak), peak, 0.0)
-    total = jnp.sum(jnp.exp(a - peak), axis=axis)
-    positive = total > 0
-    safe_total = jnp.where(positive, total, 1.0)
-    return jnp.where(positive, jnp.log(safe_total) + jnp.squeeze(peak, axis), NEG_INF)
-
-
-def logaddexp(a, b):
-    """Elementwise log(exp(a) + exp(b)), -inf for two -inf, with finite gradients (as `logsumexp`).
-
-    Written elementwise rather than as a reduction over a stacked axis: XLA fuses it into one loop.
-    """
-    peak = jax.lax.stop_gradient(jnp.maximum(a, b))
-    peak = jnp.where(jnp.isfinite(peak), peak, 0.0)
-    total = jnp.exp(a - peak) + jnp.exp(b - peak)
-    positive = total > 0
-    return jnp.where(positive, jnp.log(jnp.where(positive, total, 1.0)) + peak, NEG_INF)
+from lfd_common import NEG_INF, safe_logaddexp, safe_logsumexp
+from phmm_jax.model import HMM, HMMConfig
 
 
 @partial(jax.tree_util.register_dataclass, data_fields=["log_cont", "log_exit"], meta_fields=["config"])
@@ -99,13 +76,13 @@ def initial_message(c: Chain, log_b0):
 def predict(c: Chain, log_alpha):
     """One step of the structured transition: log Σ_prev alpha(prev) a(prev -> ·) (N, P, B)."""
     via_cont = log_alpha + c.log_cont
-    leaving = logsumexp(log_alpha[:, c.first_exit:] + c.log_exit[:, c.first_exit:], axis=1)  # (N, B)
+    leaving = safe_logsumexp(log_alpha[:, c.first_exit:] + c.log_exit[:, c.first_exit:], axis=1)  # (N, B)
     entering = jnp.concatenate([_neg_inf_like(leaving, 0), leaving[:-1]], axis=0)
-    # Shift, then overwrite column 0: concatenating `entering` as column 0 instead made XLA:CPU's
-    # step 2.5x slower.
+    # Shift, then overwrite column 0: XLA:CPU compiles this into a faster step than concatenating
+    # `entering` as column 0.
     moved = jnp.concatenate([_neg_inf_like(via_cont, 1), via_cont[:, :-1]], axis=1).at[:, 0].set(entering)
     if c.self_loop:
-        moved = moved.at[:, -1].set(logaddexp(moved[:, -1], via_cont[:, -1]))
+        moved = moved.at[:, -1].set(safe_logaddexp(moved[:, -1], via_cont[:, -1]))
     return moved
 
 
@@ -116,7 +93,7 @@ def retro(c: Chain, log_beta_next, log_b_next):
     enter_next = jnp.concatenate([ahead[1:, :1], _neg_inf_like(ahead[:, :1], 0)], axis=0)
     staying = c.log_cont + cont_target
     fe = c.first_exit
-    return staying.at[:, fe:].set(logaddexp(staying[:, fe:], c.log_exit[:, fe:] + enter_next))
+    return staying.at[:, fe:].set(safe_logaddexp(staying[:, fe:], c.log_exit[:, fe:] + enter_next))
 
 
 def end_message(c: Chain):
@@ -134,8 +111,8 @@ def forward_loglik(c: Chain, log_b, lengths, offsets=None):
 
     offsets: None, or (T, B, N, P) added to the forward messages (zeros: its gradient is the
     pseudo-state posteriors, see `posteriors`). Batch-major per frame, so that the gradient comes
-    out in the layout the public API returns: each step transposes a cache-sized slice, where
-    transposing the whole (T, N, P, B) result afterwards cost 3-5 ms on the benchmark workload.
+    out in the layout the public API returns: each step transposes a cache-sized slice, cheaper than
+    transposing the whole (T, N, P, B) result afterwards.
     """
 
     def step(log_alpha, inputs):
@@ -150,15 +127,15 @@ def forward_loglik(c: Chain, log_b, lengths, offsets=None):
         first = first + jnp.transpose(offsets[0], (1, 2, 0))
     rest = None if offsets is None else offsets[1:]
     log_alpha, _ = jax.lax.scan(step, first, (*_frames(log_b), rest))
-    return logsumexp(log_alpha[-1] + c.log_exit[-1], axis=0)
+    return safe_logsumexp(log_alpha[-1] + c.log_exit[-1], axis=0)
 
 
 # Posteriors and expected counts are gradients of the log-likelihood (e.g. Eisner 2016, "Inside-outside
 # and forward-backward algorithms are just backprop"): d log p / d log b_t(i) = P(state i at t | x) and
 # d log p / d log a = the expected number of uses of transition a. Reverse-mode differentiation of the
-# forward scan computes them in probability space from the forward pass's saved exponentials; on a
-# 2-core CPU that cost 1.3x the forward pass, against about 6x for the explicit log-space backward
-# recursion (`forward_backward`, kept for the messages themselves).
+# forward scan computes them in probability space from the forward pass's saved exponentials, at a
+# fraction of the cost of the explicit log-space backward recursion (`forward_backward`, kept for the
+# messages themselves).
 
 
 class Statistics(NamedTuple):
@@ -186,8 +163,10 @@ def expected_statistics(c: Chain, log_b, lengths, weights) -> Statistics:
     return Statistics(loglik, *grads)
 
 
-class Posteriors(NamedTuple):
-    """state: (T, N, B) P(state i at t | x). pseudo: (T, B, N, P) P(pseudo-state (i, j) at t | x).
+class ColumnPosteriors(NamedTuple):
+    """Posteriors in column layout (the public, batch-first type is `phmm_jax.Posteriors`).
+
+    state: (T, N, B) P(state i at t | x). pseudo: (T, B, N, P) P(pseudo-state (i, j) at t | x).
     loglik: (B,). Zero on padded frames."""
 
     state: jnp.ndarray
@@ -195,7 +174,7 @@ class Posteriors(NamedTuple):
     loglik: jnp.ndarray
 
 
-def posteriors(c: Chain, log_b, lengths) -> Posteriors:
+def posteriors(c: Chain, log_b, lengths) -> ColumnPosteriors:
     """State and pseudo-state posteriors by differentiating the forward pass: with respect to log_b
     (states) and to zero offsets on its messages (pseudo-states)."""
 
@@ -206,11 +185,11 @@ def posteriors(c: Chain, log_b, lengths) -> Posteriors:
     n_frames, n_states, batch = log_b.shape
     offsets = jnp.zeros((n_frames, batch, n_states, c.log_cont.shape[1]), log_b.dtype)
     (state, pseudo), loglik = jax.grad(total, argnums=(0, 1), has_aux=True)(log_b, offsets)
-    return Posteriors(state, pseudo, loglik)
+    return ColumnPosteriors(state, pseudo, loglik)
 
 
-class Messages(NamedTuple):
-    """Forward/backward messages of a batch, column layout.
+class ColumnMessages(NamedTuple):
+    """Forward/backward messages of a batch in column layout (public, batch-first: `phmm_jax.Messages`).
 
     log_alpha: (T, N, P, B) log p(x_{0:t}, z_t). log_beta: (T, N, P, B) log p(x_{t+1:L}, end | z_t).
     loglik: (B,). Padded frames (t >= L) hold -inf in both.
@@ -221,7 +200,10 @@ class Messages(NamedTuple):
     loglik: jnp.ndarray
 
 
-def forward_backward(c: Chain, log_b, lengths) -> Messages:
+def forward_backward(c: Chain, log_b, lengths) -> ColumnMessages:
+    """The explicit forward and backward recursions in log space over the pseudo-state chains, for the
+    messages themselves (posteriors and counts come cheaper as gradients: `posteriors`,
+    `expected_statistics`)."""
     def forward_step(log_alpha, inputs):
         t, log_b_t = inputs
         updated = predict(c, log_alpha) + log_b_t[:, None]
@@ -243,12 +225,12 @@ def forward_backward(c: Chain, log_b, lengths) -> Messages:
     times = jnp.arange(log_b.shape[0] - 1)
     _, log_beta = jax.lax.scan(backward_step, end, (times, log_b[1:]), reverse=True)
     log_beta = jnp.concatenate([log_beta, end[None]])
-    loglik = logsumexp((log_alpha[-1] + end).reshape(-1, end.shape[-1]), axis=0)
+    loglik = safe_logsumexp((log_alpha[-1] + end).reshape(-1, end.shape[-1]), axis=0)
     valid = (jnp.arange(log_b.shape[0])[:, None] < lengths)[:, None, None]  # (T, 1, 1, B)
-    return Messages(jnp.where(valid, log_alpha, NEG_INF), jnp.where(valid, log_beta, NEG_INF), loglik)
+    return ColumnMessages(jnp.where(valid, log_alpha, NEG_INF), jnp.where(valid, log_beta, NEG_INF), loglik)
 
 
-def pseudo_posteriors(messages: Messages):
+def pseudo_posteriors(messages: ColumnMessages):
     """P(z_t = (i, j) | x) (T, N, P, B); zero on padded frames."""
     return jnp.exp(messages.log_alpha + messages.log_beta - messages.loglik)
 

@@ -25,35 +25,28 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
-from lfd_common import check_choice, check_int, check_real
-
-NEG_INF = -jnp.inf
+from lfd_common import NEG_INF, check_choice, check_int, safe_log
 
 
 @dataclasses.dataclass(frozen=True)
 class HMMConfig:
-    """Structure and training settings of a left-right (explicit-duration) Gaussian HMM.
+    """The static structure of a left-right (explicit-duration) Gaussian HMM: what defines the model.
+
+    It is hashable (the `HMM` pytree carries it as static metadata, so jitted functions specialise on
+    it) and is saved with the model; how a model is fitted is not part of it (`FitOptions`).
 
     n_states: N, the number of states (each with one Gaussian).
     min_duration, max_duration: steps a path stays in each state; `max_duration=None` gives the
         classical left-right HMM with self-loops (geometric durations of at least `min_duration`).
-    covariance_type: "full" (default) or "diag".
-    reg_covar: added to every covariance diagonal (a floor, in squared data units).
-    duration_pseudocount: Dirichlet pseudo-count added to every *allowed* continue/exit count in the
-        M step, so that a duration unseen in training stays possible (0 gives pure maximum likelihood).
-    n_iter, tol: EM stops after `n_iter` iterations or when the mean log-likelihood per frame
-        improves by less than `tol`.
+    covariance_type: "full" (default) or "diag" (diagonal matrices stored as (N, D, D) all the same).
     """
 
     n_states: int = 20
     min_duration: int = 1
     max_duration: int | None = None
     covariance_type: str = "full"
-    reg_covar: float = 1e-4
-    duration_pseudocount: float = 1e-3
-    n_iter: int = 50
-    tol: float = 1e-4
 
     def __post_init__(self):
         check_int(self.n_states, "n_states", min_value=1)
@@ -64,10 +57,6 @@ class HMMConfig:
                 raise ValueError(
                     f"min_duration: must be <= max_duration, got {self.min_duration} > {self.max_duration}")
         check_choice(self.covariance_type, "covariance_type", ("full", "diag"))
-        check_real(self.reg_covar, "reg_covar", min_value=0.0)
-        check_real(self.duration_pseudocount, "duration_pseudocount", min_value=0.0)
-        check_int(self.n_iter, "n_iter", min_value=0)
-        check_real(self.tol, "tol", min_value=0.0)
 
     @property
     def explicit_duration(self) -> bool:
@@ -100,7 +89,7 @@ class HMM:
     log_cont: (N, P) log-probability of continuing from pseudo-state (i, j) to (i, j+1) (to itself
         for j = P-1); -inf where the structure forbids it.
     log_exit: (N, P) log-probability of exiting state i from pseudo-state (i, j); -inf where forbidden.
-    config: the `HMMConfig` (structure and training settings).
+    config: the `HMMConfig`, the static structure (N, durations, covariance type).
     """
 
     means: jnp.ndarray
@@ -144,15 +133,17 @@ def reachable_states(config: HMMConfig, n_frames: int) -> tuple[np.ndarray, np.n
     return first, last
 
 
-def transitions_from_counts(config: HMMConfig, cont_counts, exit_counts, previous: HMM | None = None):
-    """Maximum-likelihood (log_cont, log_exit) (N, P) from expected counts (N, P).
+def transitions_from_counts(config: HMMConfig, cont_counts, exit_counts, pseudocount,
+                            previous: HMM | None = None):
+    """Maximum-likelihood (log_cont, log_exit) (N, P) from expected counts (N, P) (the M step of the
+    pseudo-state chains), with a Dirichlet `pseudocount` on every allowed transition.
 
     The pseudo-count is added to allowed transitions only, so forbidden ones stay exactly -inf.
     Pseudo-states never visited (zero total) keep `previous`'s values (uniform when None).
     """
     may_continue, may_exit = allowed_transitions(config)
-    cont = jnp.where(may_continue, cont_counts + config.duration_pseudocount, 0.0)
-    exit_ = jnp.where(may_exit, exit_counts + config.duration_pseudocount, 0.0)
+    cont = jnp.where(may_continue, cont_counts + pseudocount, 0.0)
+    exit_ = jnp.where(may_exit, exit_counts + pseudocount, 0.0)
     total = cont + exit_
     visited = total > 0
     safe_total = jnp.where(visited, total, 1.0)
@@ -184,7 +175,7 @@ def transitions_from_durations(config: HMMConfig, log_duration_probs):
     return jnp.where(may_continue, log_cont, NEG_INF), jnp.where(may_exit, log_exit, NEG_INF)
 
 
-def duration_log_probs(hmm: HMM) -> jnp.ndarray:
+def duration_log_probs(hmm: HMM) -> Float[Array, "N P"]:
     """log p_i(d) (N, P) of the chain's duration distribution for d = 1..P (for a classical HMM,
     the probability of lasting exactly d steps, the geometric tail beyond P not included)."""
     reach = jnp.concatenate(
@@ -192,7 +183,7 @@ def duration_log_probs(hmm: HMM) -> jnp.ndarray:
     return reach + hmm.log_exit
 
 
-def expected_durations(hmm: HMM) -> jnp.ndarray:
+def expected_durations(hmm: HMM) -> Float[Array, " N"]:
     """Expected number of steps spent in each state (N,), including a classical geometric tail."""
     p = jnp.exp(duration_log_probs(hmm))
     d = jnp.arange(1, hmm.log_cont.shape[1] + 1, dtype=p.dtype)
@@ -203,12 +194,6 @@ def expected_durations(hmm: HMM) -> jnp.ndarray:
     safe = jnp.where(stay < 1.0, 1.0 - stay, 1.0)
     tail = jnp.where(stay > 0, reach_last * stay * (d[-1] + 1.0 / safe), 0.0)
     return within + tail
-
-
-def safe_log(p):
-    """log p with log 0 = -inf and finite (zero) gradients there."""
-    positive = p > 0
-    return jnp.where(positive, jnp.log(jnp.where(positive, p, 1.0)), NEG_INF)
 
 
 def _reverse_logcumsumexp(a):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from collections.abc import Sequence
 from functools import partial
 from typing import NamedTuple
 
@@ -18,14 +19,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
+from jaxtyping import Array, ArrayLike, Float, Int
 
-from lfd_common import as_array, check_int, check_real
+from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log
 from phmm_jax import inference
-from phmm_jax.api import emission_columns
-from phmm_jax.data import check_feasible, pad_sequences, stack_groups, to_device
+from phmm_jax._batched import emission_columns
+from phmm_jax.data import Lengths, Sequences, check_feasible, stack_groups, to_device
 from phmm_jax.em import em_step, initial_hmm, run_em
 from phmm_jax.emissions import stacked_log_density_columns
-from phmm_jax.model import HMM, HMMConfig, duration_log_probs, safe_log, transitions_from_durations
+from phmm_jax.model import HMM, HMMConfig, duration_log_probs, transitions_from_durations
+from phmm_jax.options import FitOptions, check_options
 
 
 @partial(jax.tree_util.register_dataclass, data_fields=["local"], meta_fields=["grid_shape"])
@@ -56,7 +59,7 @@ class PHMM:
         return PHMM(jax.tree_util.tree_map(lambda a: a[np.array(picks)], self.local), (2,) * self.n_params)
 
 
-def grid_points(grid_shape) -> np.ndarray:
+def grid_points(grid_shape: tuple[int, ...]) -> Float[np.ndarray, "C d"]:
     """Parameter values φ (C, d) of the corners of a regular grid over [0, 1]^d, in C order."""
     axes = [np.linspace(0.0, 1.0, g) for g in grid_shape]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(grid_shape))
@@ -78,14 +81,14 @@ def cell_weights(grid_shape, phi):
 
 def corner_weights(grid_shape, phi):
     """(C,) the d-linear weight of every grid corner for φ (d,): `cell_weights` scattered onto the
-    whole grid (zero outside φ's cell). Interpolating with all C corners is a product with the stacked
-    local models, where gathering each φ's 2^d corners copied (B, 2^d, N, D, D) covariances and took a
-    sixth of a recognition step."""
+    whole grid (zero outside φ's cell). Interpolating with all C corners is one product with the
+    stacked local models, rather than a gather of each φ's 2^d corners that would copy
+    (B, 2^d, N, D, D) covariances."""
     corners, weights = cell_weights(grid_shape, phi)
     return jnp.zeros(int(np.prod(grid_shape)), weights.dtype).at[corners].add(weights)
 
 
-def interpolate(phmm: PHMM, phi) -> HMM:
+def interpolate(phmm: PHMM, phi: Float[Array, " d"]) -> HMM:
     """The HMM λ^φ: d-linear interpolation of the local HMMs (means extrapolate; covariances and
     duration distributions use φ clipped to [0, 1]^d)."""
     weights = corner_weights(phmm.grid_shape, phi)
@@ -121,7 +124,8 @@ def _check_phi(phmm: PHMM, phi, batch: int):
     return phi
 
 
-def phmm_log_likelihood(phmm: PHMM, X, phi, lengths=None):
+def phmm_log_likelihood(phmm: PHMM, X: Sequences, phi: Float[ArrayLike, "B d"] | Float[ArrayLike, " d"],
+                        lengths: Lengths = None) -> Float[Array, " B"]:
     """log p(x | λ^φ) per sequence (B,). φ: (d,) for all sequences or (B, d). Differentiable in φ
     through `batch_phmm_log_likelihood`."""
     X, lengths = pad_sequences(X, lengths, dim=phmm.local.dim)
@@ -131,16 +135,18 @@ def phmm_log_likelihood(phmm: PHMM, X, phi, lengths=None):
     return batch_phmm_log_likelihood(phmm, X, lengths, jnp.asarray(phi, X.dtype))
 
 
-def fit_phmm(groups, grid_shape, config: HMMConfig = HMMConfig(), local_iters: int | None = None):
+def fit_phmm(groups: Sequence[Sequences], grid_shape: tuple[int, ...], config: HMMConfig = HMMConfig(),
+             *, options: FitOptions = FitOptions()) -> PHMM:
     """Train a PHMM by the synchronised local training of PHMM §III-B1.
 
     groups: one entry per grid corner in C order (`grid_points(grid_shape)` gives their φ), each a
         list of (T_b, D) sequences or a (B, T, D) array, all of the same action.
-    1. A global HMM is fitted by EM on all sequences. 2. Every local HMM starts from it and runs EM
-    on its own sequences with the means fixed after the first iteration (eq. 2), so corresponding
-    states of all local HMMs model the same part of the movement. The local EMs run as one vmap.
-    local_iters: EM iterations for the local models (default `config.n_iter`).
+    1. A global HMM is fitted by EM on all sequences (`options.max_iter`). 2. Every local HMM starts
+    from it and runs EM on its own sequences (`options.local_max_iter`, default `max_iter`) with the
+    means fixed after the first iteration (eq. 2), so corresponding states of all local HMMs model
+    the same part of the movement. The local EMs run as one vmap.
     """
+    options = check_options(options)
     grid_shape = tuple(check_int(g, "grid_shape", min_value=2) for g in grid_shape)
     n_corners = int(np.prod(grid_shape))
     if len(groups) != n_corners:
@@ -151,30 +157,31 @@ def fit_phmm(groups, grid_shape, config: HMMConfig = HMMConfig(), local_iters: i
             raise ValueError(f"groups[{k}]: the grid corner {np.unravel_index(k, grid_shape)} has no sequences")
     X, lengths, weights = stack_groups(groups, None, "groups")
     check_feasible(config, lengths.ravel())
-    X = jnp.asarray(X, jnp.result_type(float))
+    X = jnp.asarray(X, float_dtype())
     lengths, weights = jnp.asarray(lengths), jnp.asarray(weights, X.dtype)
     flat = (X.reshape(-1, *X.shape[2:]), lengths.ravel(), weights.ravel())
-    global_hmm = initial_hmm(config, *flat)
-    global_hmm, _ = run_em(global_hmm, *flat, config.n_iter, config.tol)
+    global_hmm = initial_hmm(config, *flat, options.reg_covar, options.duration_pseudocount)
+    global_hmm, _ = run_em(global_hmm, *flat, options, options.max_iter)
     start = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n_corners,) + a.shape), global_hmm)
-    local, _ = run_em(start, X, lengths, weights, local_iters or config.n_iter, config.tol,
-                      freeze_means_after=1, step=_local_em_step)
+    local_max_iter = options.max_iter if options.local_max_iter is None else options.local_max_iter
+    local, _ = run_em(start, X, lengths, weights, options, local_max_iter, freeze_means_after=1, step=_local_em_step)
     return PHMM(local, grid_shape)
 
 
 @partial(jax.jit, static_argnames=("update_means",))
-def _local_em_step(hmm: HMM, X, lengths, weights, update_means: bool = True):
-    """`em_step` for all local HMMs at once (leading axis C on every argument)."""
-    return jax.vmap(lambda h, x, n, w: em_step(h, x, n, w, update_means=update_means))(hmm, X, lengths, weights)
+def _local_em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True):
+    """`em_step` for all local HMMs at once (leading axis C on the HMM and the data)."""
+    return jax.vmap(lambda h, x, n, w: em_step(h, x, n, w, reg_covar, duration_pseudocount, update_means=update_means)
+                    )(hmm, X, lengths, weights)
 
 
 class Recognition(NamedTuple):
     """label: (B,) index of the best PHMM. phi: (B, K, d) the best parameter per sequence and PHMM.
     loglik: (B, K) log-likelihood at that parameter."""
 
-    label: np.ndarray
-    phi: np.ndarray
-    loglik: np.ndarray
+    label: Int[Array, " B"]
+    phi: Float[Array, "B K d"]
+    loglik: Float[Array, "B K"]
 
 
 def _start_lattice(n_params: int, points: int) -> jnp.ndarray:
@@ -219,8 +226,8 @@ def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_step
     return phi, batch_phmm_log_likelihood(phmm, X, lengths, phi)
 
 
-def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 20, learning_rate: float = 0.05,
-              lattice_points: int = 5) -> Recognition:
+def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
+              n_steps: int = 20, learning_rate: float = 0.05, lattice_points: int = 5) -> Recognition:
     """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
 
     For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ) by projected gradient ascent
@@ -229,10 +236,8 @@ def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 20, l
     the highest log-likelihood at its φ_k. Batched over sequences with vmap.
     phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
     Defaults: a lattice point scores all sequences under one model (cheap), a gradient step needs one
-    model per sequence (dear), so the start is a fine 5^d lattice and the ascent 20 steps. On the
-    benchmark's 70 sequences (`experiments.bench.bench_hmm`) that came as close to a 300-step search
-    (log-likelihood gap median 4.5, 90th percentile 20, max 81 nats) as 40 steps from a 3^d lattice
-    (2.8, 30, 320), in 60% of the time.
+    model per sequence (dear), so the start is a fine 5^d lattice and the ascent short (20 steps);
+    how close that comes to a long search is measured by `experiments.bench.bench_hmm`.
     """
     phmms = [phmms] if isinstance(phmms, PHMM) else list(phmms)
     if not phmms:
@@ -249,6 +254,6 @@ def recognize(phmms, X, lengths=None, epsilon: float = 0.1, n_steps: int = 20, l
     # A grid of 2 points per parameter is its own outermost-corner model: nothing to refine.
     results = [_search(p, p.outer(), X, lengths, epsilon, learning_rate, n_steps, lattice_points,
                        refine=any(g > 2 for g in p.grid_shape)) for p in phmms]
-    phi = np.stack([np.asarray(r[0]) for r in results], axis=1)
-    loglik = np.stack([np.asarray(r[1]) for r in results], axis=1)
-    return Recognition(np.argmax(loglik, axis=1), phi, loglik)
+    phi = jnp.stack([r[0] for r in results], axis=1)
+    loglik = jnp.stack([r[1] for r in results], axis=1)
+    return Recognition(jnp.argmax(loglik, axis=1), phi, loglik)

@@ -40,8 +40,9 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
-from lfd_common import as_array, check_real
+from lfd_common import as_array, check_real, float_dtype
 
 MARKER_ORDER = ("sternum", "shoulder", "elbow", "wrist", "index_knuckle", "index_tip", "thumb_tip")
 _SHOULDER, _ELBOW, _KNUCKLE, _TIP, _THUMB = 1, 2, 4, 5, 6
@@ -76,7 +77,8 @@ def _dot(a, b):
     return jnp.sum(a * b, axis=-1, keepdims=True)
 
 
-def solve_arm(q, r, o, upper_arm, forearm, base_frame=DEFAULT_BASE_FRAME):
+def solve_arm(q: Float[Array, "*batch 3"], r: Float[Array, "*batch 3"], o: Float[Array, "*batch 3"],
+              upper_arm: float, forearm: float, base_frame: Float[ArrayLike, "3 3"] = DEFAULT_BASE_FRAME):
     """Joint angles for elbow q, hand r and finger->thumb direction o (..., 3), all relative to the
     shoulder and already in robot scale. Returns (cardan (..., 3), delta (...,), alpha (...,),
     robot_elbow (..., 3)). Pure jnp, differentiable away from the singular poses."""
@@ -118,8 +120,10 @@ def _retarget(markers, shoulder_ref, upper_arm, forearm, scale, base_frame):
     return ArmAngles(cardan, delta, alpha, r_s, q_s, robot_elbow, scale)
 
 
-def retarget(markers, upper_arm: float = 0.105, forearm: float = 0.145, shoulder=None, scale=None,
-             base_frame=DEFAULT_BASE_FRAME) -> ArmAngles:
+def retarget(markers: Float[ArrayLike, "*batch T 7 3"] | Float[ArrayLike, "*batch T 21"], upper_arm: float = 0.105,
+             forearm: float = 0.145, shoulder: Float[ArrayLike, "*batch 3"] | None = None,
+             scale: Float[ArrayLike, "*batch"] | None = None,
+             base_frame: Float[ArrayLike, "3 3"] = DEFAULT_BASE_FRAME) -> ArmAngles:
     """Robot joint angles for a marker trajectory (..., T, 7, 3) or (..., T, 21) in `MARKER_ORDER`.
 
     upper_arm, forearm: the robot's a (shoulder-elbow) and b (elbow-grasp point), metres.
@@ -149,7 +153,7 @@ def retarget(markers, upper_arm: float = 0.105, forearm: float = 0.145, shoulder
         scale = np.zeros(batch)
     else:
         scale = np.broadcast_to(as_array(scale, "scale", ndim=range(0, 7), min_value=1e-9), batch)
-    dtype = jnp.result_type(float)
+    dtype = float_dtype()
     return _retarget(jnp.asarray(markers, dtype), jnp.asarray(shoulder, dtype), upper_arm, forearm,
                      jnp.asarray(scale, dtype), jnp.asarray(base_frame, dtype))
 

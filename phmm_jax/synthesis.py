@@ -11,8 +11,9 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float
 
-from lfd_common import as_array, check_int
+from lfd_common import as_array, check_int, float_dtype
 from phmm_jax.model import expected_durations
 from phmm_jax.parametric import PHMM, interpolate
 
@@ -44,7 +45,8 @@ def _synthesize(phmm: PHMM, phi, length: int):
     return hermite_spline(centres, hmm.means, query)
 
 
-def synthesize(phmm: PHMM, phi, length: int = 100):
+def synthesize(phmm: PHMM, phi: Float[ArrayLike, " d"] | Float[ArrayLike, "M d"], length: int = 100
+               ) -> Float[Array, "length D"] | Float[Array, "M length D"]:
     """The mean movement (length, D) for parameter φ (d,), or a batch (M, length, D) for φ (M, d).
 
     The interpolated state means are placed at the centres of the expected state durations and
@@ -89,7 +91,8 @@ def _invert_multilinear(corner_targets, targets, phi0, n_iter: int):
     return jax.vmap(solve)(targets, phi0)
 
 
-def target_to_phi(corner_targets, targets, n_iter: int = 10):
+def target_to_phi(corner_targets: Float[ArrayLike, "*grid P"], targets: Float[ArrayLike, "M P"] | Float[ArrayLike, " P"],
+                  n_iter: int = 10) -> Float[Array, "M d"] | Float[Array, " d"]:
     """Interpolation parameters φ (M, d) whose interpolated target is closest to each target (M, P).
 
     corner_targets: (g_1, ..., g_d, P) the target point of every grid corner (e.g. the table-top
@@ -113,8 +116,7 @@ def target_to_phi(corner_targets, targets, n_iter: int = 10):
     if np.any(lengths_sq == 0):
         raise ValueError("corner_targets: the grid is degenerate (two outer corners coincide)")
     phi0 = (targets - origin) @ edges.T / lengths_sq  # eqs. 7-9 with the division by the edge length
-    dtype = jnp.result_type(float)
+    dtype = float_dtype()
     phi = _invert_multilinear(jnp.asarray(corner_targets, dtype), jnp.asarray(targets, dtype),
                               jnp.asarray(phi0, dtype), check_int(n_iter, "n_iter", min_value=0))
-    phi = np.asarray(phi)
     return phi[0] if single else phi

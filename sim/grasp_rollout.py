@@ -13,10 +13,10 @@ between control steps, and returns `GraspOutcomes`. Backends:
   `body_gravcomp`), `lax.scan` over control steps with the controller inside the scan, `fori_loop`
   over the 10 physics substeps. Runs on any JAX device and is differentiable. One compiled program
   per hand and batch size (`_mjx_chunk`: every object is in each hand's scene, so all grasps share
-  it; its inputs are committed to the device so that the second call does not compile it again); on
-  the shared 2-core CPU it takes about 10 s to trace and 50-55 s to compile, and a chunk of 20 control
-  steps of 6 worlds 3.5-7 s. Each physics step is `sim.rollout.mjx_step`, whose LAPACK calls cannot
-  deadlock XLA:CPU's thread pool (`mjx.step`'s can: README "Known problems"). MJX keeps the
+  it; its inputs are committed to the device so that the second call does not compile it again;
+  `experiments/bench/bench_mjx.py` measures its compile and run times). Each physics step is
+  `sim.rollout.mjx_step`, whose LAPACK calls cannot deadlock XLA:CPU's thread pool (`mjx.step`'s
+  can: README "Known problems"). MJX keeps the
   `robot_hands.MJX_MAX_CONTACTS` deepest candidate contacts per world; a rollout in which that many
   penetrate at once raises an error.
 * `mjx-warp`: the same scan with `impl="warp"` (NVIDIA GPU, `warp-lang` and `mujoco-warp` installed).
@@ -40,6 +40,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 from mujoco import mjx
+from mujoco.batch import Batch
 
 from lfd_common import as_array, check_choice, check_int
 from sim.grasp_objects import GRASP_CLASSES
@@ -47,6 +48,7 @@ from sim.grasp_strategy import (CONTROL_DT_S, DONE, ControllerState, TrialParams
                                 n_control_steps)
 from sim.robot_hands import (MJX_MAX_CONTACTS, SceneLayout, TIMESTEP_S, grasp_model, hand_joint_qpos, hand_spec,
                               parked_position)
+from sim._mjx_compat import contact_count, contact_distances
 from sim.rollout import mjx_step
 
 BACKENDS: tuple[str, ...] = ("auto", "native", "mjx-jax", "mjx-warp")
@@ -198,8 +200,6 @@ def peak_touch(last: np.ndarray, substeps, layout: SceneLayout):
 
 
 def _rollout_native(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int) -> GraspOutcomes:
-    from mujoco.batch import Batch
-
     model, layout = _scene(hand)
     b = params.goal.shape[0]
     batch = Batch(model, nsim=b, nthread=nthread)
@@ -280,12 +280,12 @@ def _penetrating(data, impl: str) -> jax.Array:
     that many penetrate at once, a deeper one may have been dropped."""
     if impl != "jax":
         return jnp.zeros(data.qpos.shape[0], jnp.int32)
-    return jnp.sum(data._impl.contact.dist < 0, axis=-1).astype(jnp.int32)
+    return jnp.sum(contact_distances(data) < 0, axis=-1).astype(jnp.int32)
 
 
 def _contact_count(data) -> jax.Array:
     """Contacts in use across all worlds (Warp's `nacon`), or -1 where the implementation has no count."""
-    nacon = getattr(getattr(data, "_impl", None), "nacon", None)
+    nacon = contact_count(data)
     return jnp.asarray(-1 if nacon is None else jnp.max(nacon))
 
 
@@ -309,7 +309,7 @@ def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl:
     sensors = jnp.asarray(first_readings(b, model), jnp.float32)
     state = initial_state(jparams, layout.n_links)
     # committed to the device like the chunk's outputs, so the second call does not compile again for
-    # inputs that differ only in being uncommitted (about a minute on 2 cores)
+    # inputs that differ only in being uncommitted (a compilation costs far more than a chunk's run)
     mjx_model, grav, data, sensors, state, jparams = jax.device_put(
         (mjx_model, grav, data, sensors, state, jparams), jax.devices()[0])
     chunk, deepest = _mjx_chunk(hand, impl), 0

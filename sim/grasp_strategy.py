@@ -30,13 +30,14 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from lfd_common import as_array, check_choice, check_real
+from lfd_common import as_array, check_choice, check_real, quat_to_matrix
 from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, VOLAR_GRASPS, check_grasp_class, robot_grasp_for
 from sim.human_grasps import hand_pose_in_world
-from sim.robot_hands import SceneLayout, hand_spec, preshape
+from sim.robot_hands import SceneLayout, grasp_model, hand_joint_qpos, hand_spec, preshape
 
 APPROACH, RETRACT, CLOSE, LIFT, HOLD, DONE = range(6)
 PHASE_NAMES = ("approach", "retract", "close", "lift", "hold", "done")
@@ -128,16 +129,6 @@ def initial_state(params: TrialParams, n_links: int) -> ControllerState:
         slip_m=jnp.zeros(b), end_obj=jnp.zeros((b, 3)))
 
 
-def _quat_mat(q: jax.Array) -> jax.Array:
-    """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return jnp.stack([
-        jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        jnp.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        jnp.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
-
-
 def _move_towards(cmd: jax.Array, target: jax.Array, step) -> tuple[jax.Array, jax.Array]:
     """Move (B, 3) `cmd` at most `step` (scalar or (B, 1)) towards `target`; also return whether it
     arrived (B,)."""
@@ -156,9 +147,9 @@ def read_sensors(sensordata: jax.Array, obj: jax.Array, layout: SceneLayout):
     pos_adr = jnp.asarray(layout.object_pos)[obj][:, None] + jnp.arange(3)
     quat_adr = jnp.asarray(layout.object_quat)[obj][:, None] + jnp.arange(4)
     obj_pos = jnp.take_along_axis(sensordata, pos_adr, axis=-1)
-    obj_rot = _quat_mat(jnp.take_along_axis(sensordata, quat_adr, axis=-1))
+    obj_rot = quat_to_matrix(jnp.take_along_axis(sensordata, quat_adr, axis=-1))
     palm_pos = sensordata[:, layout.palm_pos:layout.palm_pos + 3]
-    palm_rot = _quat_mat(sensordata[:, layout.palm_quat:layout.palm_quat + 4])
+    palm_rot = quat_to_matrix(sensordata[:, layout.palm_quat:layout.palm_quat + 4])
     return touch, contacts, obj_pos, obj_rot, palm_pos, palm_rot
 
 
@@ -286,9 +277,6 @@ def _wrist_angles(rot: np.ndarray) -> np.ndarray:
 def fingertip_sweep(hand: str, robot_grasp: str, n: int = 41) -> np.ndarray:
     """(n, F, 3) fingertip positions in the hand frame while the hand closes from the open to the closed
     preshape of `robot_grasp` (forward kinematics at n evenly spaced closures)."""
-    import mujoco
-
-    from sim.robot_hands import grasp_model, hand_joint_qpos
     model, layout = grasp_model(hand)
     data = mujoco.MjData(model)
     open_, closed = preshape(hand, robot_grasp)

@@ -48,6 +48,7 @@ from lfd_common import as_array, cache_dir, check_int, check_real, load_arrays, 
 from sim.grasp_objects import GRASP_CLASSES, check_grasp_class
 from sim.human_grasps import GRASP_POSTURES, grasp_scene_xml, hand_pose_in_world, scene_qpos
 from sim.human_hand import DEFAULT_SHAPE, HandShape
+from sim.render import setup_rendering
 
 _VERSION = 1  # bump when rendering changes, to invalidate cached databases
 
@@ -140,6 +141,7 @@ class GraspRenderer:
         self._object_pos0 = self.model.body_pos[self._object_body].copy() if with_object else None
         self._hand_geom = (self.model.geom_bodyid > 0) & (self.model.geom_bodyid != self._object_body)
         self._object_geom = self.model.geom_bodyid == self._object_body
+        setup_rendering()
         self._renderer = mujoco.Renderer(self.model, height=self.height, width=self.width)
 
     def set_posture(self, posture_deg):

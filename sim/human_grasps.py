@@ -42,10 +42,11 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from lfd_common import as_array, check_int, check_real
+from lfd_common import as_array, check_int, check_real, matrix_to_quat, quat_to_matrix
 from sim.grasp_objects import GRASP_OBJECTS, check_grasp_class
 from sim.human_hand import (DEFAULT_SHAPE, FINGERS, N_JOINTS, NEUTRAL_POSTURE_DEG, HandShape, hand_body_xml,
                             hand_defaults_xml, posture_qpos)
+from sim.scenes import offscreen_visual_xml
 
 __all__ = ["GRASP_POSTURES", "GraspContacts", "GraspPosture", "grasp_contacts", "grasp_plausibility",
            "grasp_scene_xml", "hand_pose_in_world", "posture", "scene_qpos"]
@@ -90,22 +91,15 @@ def posture(grasp: int, stage: float = 1.0) -> np.ndarray:
     return NEUTRAL_POSTURE_DEG + stage * (target - NEUTRAL_POSTURE_DEG)
 
 
-def _quat_to_mat(q) -> np.ndarray:
-    m = np.zeros(9)
-    mujoco.mju_quat2Mat(m, np.asarray(q, float) / np.linalg.norm(q))
-    return m.reshape(3, 3)
-
-
 def hand_pose_in_world(grasp: int) -> tuple[np.ndarray, np.ndarray]:
     """(pos (3,), quat (4,)) of the hand frame in the scene's world frame (= the object's frame, object
     upright at the origin)."""
     g = GRASP_POSTURES[check_grasp_class(grasp)]
-    r_ho = _quat_to_mat(g.object_quat)             # object axes in the hand frame
+    q = np.asarray(g.object_quat, float)
+    r_ho = quat_to_matrix(q / np.linalg.norm(q))   # object axes in the hand frame
     r_wh = r_ho.T                                  # hand axes in the world (= object) frame
     pos = -r_wh @ np.asarray(g.object_pos)
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, r_wh.ravel())
-    return pos, quat
+    return pos, matrix_to_quat(r_wh)
 
 
 def _rgb(value, name: str, n: int) -> str:
@@ -136,7 +130,7 @@ def grasp_scene_xml(grasp: int, shape: HandShape = DEFAULT_SHAPE, with_object: b
     fovy = check_real(fovy_deg, "fovy_deg", min_value=1.0, max_value=120.0)
     size = check_int(max_image_size, "max_image_size", min_value=16, max_value=4096)
     hand_pos, hand_quat = hand_pose_in_world(grasp)
-    r_wh = _quat_to_mat(hand_quat)
+    r_wh = quat_to_matrix(hand_quat)
     obj_pos = r_wh @ offset
     obj = GRASP_OBJECTS[grasp]
     obj_xml = ""
@@ -149,11 +143,7 @@ def grasp_scene_xml(grasp: int, shape: HandShape = DEFAULT_SHAPE, with_object: b
     return f"""<mujoco model="grasp_{grasp}">
   <compiler angle="radian"/>
   <option gravity="0 0 0"/>
-  <visual>
-    <global offwidth="{size}" offheight="{size}"/>
-    <headlight ambient="{ambient:.3f} {ambient:.3f} {ambient:.3f}" diffuse="{diffuse * 0.5:.3f} {diffuse * 0.5:.3f} {diffuse * 0.5:.3f}" specular="0.05 0.05 0.05"/>
-    <quality shadowsize="0"/>
-  </visual>
+  {offscreen_visual_xml(size, ambient, 0.5 * diffuse)}
   <asset>
     <texture name="sky" type="skybox" builtin="flat" rgb1="{bg}" rgb2="{bg}" width="8" height="8"/>
     <material name="matte" specular="0" shininess="0"/>

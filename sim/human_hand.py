@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from lfd_common import as_array, check_real
+from lfd_common import as_array, check_real, matrix_to_quat, quat_to_matrix
 
 FINGERS: tuple[str, ...] = ("thumb", "index", "middle", "ring", "little")
 _THUMB_JOINTS = ("cmc_abd", "cmc_flex", "mcp", "ip")
@@ -106,9 +106,7 @@ def _quat_from_axes(x_axis, z_axis) -> np.ndarray:
     x = np.asarray(x_axis, float) / np.linalg.norm(x_axis)
     z = np.asarray(z_axis, float) - np.dot(z_axis, x) * x
     z /= np.linalg.norm(z)
-    R = np.stack([x, np.cross(z, x), z], 1)
-    w = np.sqrt(max(1.0 + np.trace(R), 1e-12)) / 2.0
-    return np.array([w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w)])
+    return matrix_to_quat(np.stack([x, np.cross(z, x), z], 1))
 
 
 def _thumb_frame() -> tuple[np.ndarray, np.ndarray]:
@@ -119,11 +117,9 @@ def _thumb_frame() -> tuple[np.ndarray, np.ndarray]:
     towards the palm side (-z of the hand)."""
     x = _THUMB_DIRECTION / np.linalg.norm(_THUMB_DIRECTION)
     q = _quat_from_axes(x, -_THUMB_FLEXION)
-    R = np.zeros(9)
-    mujoco.mju_quat2Mat(R, q)
     palmar = np.array([0.0, 0.0, -1.0]) - x * (-x[2])
     axis = np.cross(x, palmar / np.linalg.norm(palmar))
-    return q, R.reshape(3, 3).T @ axis
+    return q, quat_to_matrix(q).T @ axis
 
 
 _THUMB_DIRECTION = np.array([0.6, 0.75, -0.2])

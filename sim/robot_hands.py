@@ -1,12 +1,13 @@
-"""Robot hands for grasp execution (MAP §III): a Barrett-like and a Karlsruhe-like hand, MJCF written here.
+"""The grasp scenes of MAP §III: a robot hand (`sim.robot_hand_specs`) on a floating wrist, a table and
+the six grasp objects, as MJCF written here, and where things are in the compiled model (`SceneLayout`).
 
 Both hands sit on a floating wrist: three slide joints (world x, y, z) and three hinges composed as
 R = Rz(a) Rx(b) Ry(c) (intrinsic), each driven by a force-limited position actuator. The chain is
 singular only when the hand's y axis is vertical, which no grasp here asks for (y is the closing
 direction of the Barrett fingers and the finger direction of the Karlsruhe hand; both stay horizontal).
 
-Hand frame (both hands): origin at the centre of the palm surface, +z the palm normal (the approach
-direction: the object lies at +z when the hand grasps it), x the axis a wrap closes around.
+Hand frame (both hands): see `sim.robot_hand_specs` (origin at the palm surface centre, +z the palm
+normal).
 
 Geometry: every hand geom is a capsule, so every physics backend collides it with the objects of
 `sim.grasp_objects` (cylinders, spheres, a box) and the plane table (MJX-JAX 3.17 has capsule against
@@ -32,17 +33,30 @@ one compiled model per hand serves every grasp class.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from lfd_common import check_choice
-from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, ROBOT_GRASPS
+from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS
+from sim.robot_hand_specs import HAND_NAMES, HANDS, Finger, HandSpec, hand_spec, preshape
 from sim.scenes import checker_asset_xml
 
-HAND_NAMES: tuple[str, ...] = ("barrett", "karlsruhe")
-WRIST_ACTUATORS: tuple[str, ...] = ("wrist_x", "wrist_y", "wrist_z", "wrist_a", "wrist_b", "wrist_c")
+__all__ = ["HANDS", "HAND_NAMES", "LS_ITERATIONS", "MJX_MAX_CONTACTS", "SOLVER_ITERATIONS", "TIMESTEP_S",
+           "WRIST_ACTUATORS", "Finger", "HandSpec", "SceneLayout", "grasp_model", "grasp_scene_xml",
+           "hand_joint_qpos", "hand_spec", "parked_position", "preshape", "scene_layout"]
+
+# The floating wrist, world x, y, z slides then the a, b, c hinges: (joint, MJCF joint attributes,
+# position actuator kp, kv, force limit).
+_WRIST = (
+    ("wrist_x", 'type="slide" axis="1 0 0" damping="20"', 2000, 80, 40),
+    ("wrist_y", 'type="slide" axis="0 1 0" damping="20"', 2000, 80, 40),
+    ("wrist_z", 'type="slide" axis="0 0 1" damping="20"', 2000, 80, 40),
+    ("wrist_a", 'axis="0 0 1" damping="2" armature="0.01"', 200, 8, 20),
+    ("wrist_b", 'axis="1 0 0" damping="2" armature="0.01"', 200, 8, 20),
+    ("wrist_c", 'axis="0 1 0" damping="2" armature="0.01"', 200, 8, 20),
+)
+WRIST_ACTUATORS: tuple[str, ...] = tuple(w[0] for w in _WRIST)
 TIMESTEP_S = 0.002
 # Constraint solver caps, the same on every backend: with impratio 1 Newton converges within them (the
 # sample grasps give the same outcomes with 8/8 as with MuJoCo's defaults 100/50), and MJX-JAX runs
@@ -56,130 +70,10 @@ _TABLE_BITS = 'contype="8" conaffinity="6"'
 _PARK_X_M = 3.0  # parked objects float at x = 3 + k metres, z = 1 m
 # MJX-JAX computes every candidate contact of every world, touching or not (94 for the Karlsruhe hand,
 # 66 for the Barrett), and its Newton solver with elliptic cones builds a dense (4 ncon)^2 matrix per
-# iteration, one block update per contact: keeping the 32 deepest halved the Karlsruhe program's
-# trace + compile + first chunk (112 s -> 61 s on the shared 2-core machine). MuJoCo finds at most
-# 10 contacts at once in the whole `paper` sweep (either hand); `grasp_rollout` raises if 32 ever
-# penetrate at once in an MJX world.
+# iteration, one block update per contact: keeping only the 32 deepest makes the program much smaller
+# to trace and compile. MuJoCo finds at most 10 contacts at once in the whole `paper` sweep (either
+# hand); `grasp_rollout` raises if 32 ever penetrate at once in an MJX world.
 MJX_MAX_CONTACTS = 32
-
-
-@dataclass(frozen=True)
-class Finger:
-    """One finger: base position and frame in the hand frame, link lengths, radius.
-
-    `xyaxes` gives the finger frame's x and y axes in the hand frame; the finger extends along its z
-    axis and flexes about its x axis towards its -y axis. `spread`/`oppose` add a hinge before the
-    flexion (about the finger's z axis / y axis), driven by actuator `dof` of that name.
-    """
-
-    name: str
-    pos: tuple[float, float, float]
-    xyaxes: tuple[float, ...]
-    lengths: tuple[float, float]
-    radius: float
-    flex_dof: str
-    distal_dof: str | None = None   # None: distal joint coupled to the flexion
-    extra_joint: str | None = None   # "spread" or "oppose"
-    extra_dof: str | None = None
-    extra_sign: float = 1.0
-
-
-@dataclass(frozen=True)
-class HandSpec:
-    """A robot hand: fingers, palm capsule, actuated hand DoF and grasp preshapes.
-
-    `preshapes[name] = (open, closed)`, each (n_dof,) joint targets in radians in `dofs` order.
-    """
-
-    name: str
-    palm_fromto: tuple[float, ...]
-    palm_radius: float
-    fingers: tuple[Finger, ...]
-    dofs: tuple[str, ...]
-    preshapes: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]
-    distal_coupling: tuple[float, float]  # distal = c0 + c1 * proximal for coupled distal joints
-    finger_kp: float
-    finger_force: float
-    dof_range: dict[str, tuple[float, float]] = field(default_factory=dict)
-
-    @property
-    def link_names(self) -> tuple[str, ...]:
-        """Palm first, then each finger's proximal and distal link."""
-        return ("palm",) + tuple(f"{f.name}_{part}" for f in self.fingers for part in ("prox", "dist"))
-
-    @property
-    def link_finger(self) -> np.ndarray:
-        """(L,) int: 0 for the palm, k for a link of finger k (1-based, `fingers` order)."""
-        return np.array([0] + [k + 1 for k in range(len(self.fingers)) for _ in range(2)])
-
-
-_BARRETT = HandSpec(
-    name="barrett",
-    # palm: a capsule across the hand joining thumb side and finger side, surface at z = 0
-    palm_fromto=(0.0, -0.05, -0.028, 0.0, 0.05, -0.028), palm_radius=0.028,
-    fingers=(
-        Finger("f1", (0.026, 0.062, 0.0), (1, 0, 0, 0, 1, 0), (0.070, 0.058), 0.011, "flex1",
-               extra_joint="spread", extra_dof="spread", extra_sign=-1.0),
-        Finger("f2", (-0.026, 0.062, 0.0), (1, 0, 0, 0, 1, 0), (0.070, 0.058), 0.011, "flex2",
-               extra_joint="spread", extra_dof="spread", extra_sign=1.0),
-        Finger("f3", (0.0, -0.062, 0.0), (-1, 0, 0, 0, -1, 0), (0.070, 0.058), 0.011, "flex3"),
-    ),
-    dofs=("spread", "flex1", "flex2", "flex3"),
-    # Fig. 2 g-i: Wrap (large aperture, fingers parallel against the thumb), Two-finger Thumb (small
-    # aperture, tips pinch), Precision Disc (fingers spread 60 degrees: a tripod)
-    preshapes={
-        "Wrap": ((0.0, 0.0, 0.0, 0.0), (0.0, 2.2, 2.2, 2.2)),
-        "Two-finger Thumb": ((0.0, 0.1, 0.1, 0.1), (0.0, 1.5, 1.5, 1.5)),
-        "Precision Disc": ((1.05, 0.0, 0.0, 0.0), (1.05, 1.5, 1.5, 1.5)),
-    },
-    distal_coupling=(0.0, 0.5),  # the distal link follows the proximal at half its angle
-    finger_kp=3.0, finger_force=1.6,
-    dof_range={"spread": (0.0, 3.14), "flex1": (0.0, 2.44), "flex2": (0.0, 2.44), "flex3": (0.0, 2.44)},
-)
-
-# Karlsruhe-like: human-like, fingers extend along +y in the palm plane and curl towards +z; shorter
-# fingers than the Barrett, and the thumb base close to the finger bases (MAP §IV-A names both).
-_K_FINGER_AXES = (1, 0, 0, 0, 0, -1)  # finger z = hand +y, closing (-y_f) = hand +z
-_KARLSRUHE = HandSpec(
-    name="karlsruhe",
-    palm_fromto=(-0.03, 0.0, -0.025, 0.03, 0.0, -0.025), palm_radius=0.025,
-    fingers=(
-        Finger("thumb", (0.015, -0.045, -0.01), (0, -1, 0, 1, 0, 0), (0.040, 0.032), 0.009, "thumb_flex",
-               extra_joint="oppose", extra_dof="thumb_rot"),
-        Finger("index", (0.027, 0.040, -0.01), _K_FINGER_AXES, (0.045, 0.035), 0.0085, "index_prox",
-               distal_dof="index_dist"),
-        Finger("middle", (0.009, 0.042, -0.01), _K_FINGER_AXES, (0.048, 0.036), 0.0085, "middle_prox",
-               distal_dof="middle_dist"),
-        Finger("ring", (-0.009, 0.040, -0.01), _K_FINGER_AXES, (0.045, 0.034), 0.0085, "ring_flex"),
-        Finger("little", (-0.027, 0.036, -0.01), _K_FINGER_AXES, (0.038, 0.030), 0.008, "little_flex"),
-    ),
-    dofs=("thumb_rot", "thumb_flex", "index_prox", "index_dist", "middle_prox", "middle_dist",
-          "ring_flex", "little_flex"),
-    # Fig. 2 j-m: Power (thumb opposed to four parallel fingers), Wrap (thumb not opposed: it flexes
-    # across the palm), Sphere (fingers bent more), Disc (thumb opposed, fingers straighter). The thumb
-    # stands on the palm pointing along the palm normal; thumb_rot turns its flexion plane from across
-    # the palm (0) to towards the fingers (pi/2, opposition), and an opposing thumb starts extended
-    # away from the fingers (negative flexion) so the object passes it on the approach.
-    preshapes={
-        "Power": ((1.45, -0.5, 0.25, 0.25, 0.25, 0.25, 0.25, 0.25),
-                  (1.45, 1.4, 1.6, 1.3, 1.6, 1.3, 1.6, 1.6)),
-        "Wrap": ((0.25, -0.3, 0.2, 0.2, 0.2, 0.2, 0.2, 0.2),
-                 (0.25, 1.0, 1.7, 1.4, 1.7, 1.4, 1.7, 1.7)),
-        "Sphere": ((1.2, -0.5, 0.55, 0.35, 0.55, 0.35, 0.55, 0.55),
-                   (1.2, 1.3, 1.5, 1.2, 1.5, 1.2, 1.5, 1.5)),
-        "Disc": ((1.4, -0.6, 0.15, 0.1, 0.15, 0.1, 0.15, 0.15),
-                 (1.4, 1.2, 1.2, 0.9, 1.2, 0.9, 1.2, 1.2)),
-    },
-    distal_coupling=(0.0, 0.8),
-    finger_kp=2.0, finger_force=1.0,
-    dof_range={"thumb_flex": (-0.8, 2.0)},
-)
-HANDS: dict[str, HandSpec] = {"barrett": _BARRETT, "karlsruhe": _KARLSRUHE}
-
-
-def hand_spec(hand: str) -> HandSpec:
-    """The `HandSpec` of `hand` ("barrett" or "karlsruhe"); ValueError naming `hand` otherwise."""
-    return HANDS[check_choice(hand, "hand", HAND_NAMES)]
 
 
 def _fmt(values) -> str:
@@ -231,24 +125,18 @@ def _hand_xml(spec: HandSpec) -> tuple[str, str, str]:
         equalities.append(f'<joint joint1="{f.name}_spread" joint2="{spread[0].name}_spread" '
                           f'polycoef="0 1 0 0 0" solref="0.005 1"/>')
     palm_pad = spec.palm_radius + 0.003
+    wrist_joints = "".join(f'<joint name="{n}" {attrs}/>' for n, attrs, *_ in _WRIST)
     hand = f"""
     <body name="hand" gravcomp="1">
-      <joint name="wrist_x" type="slide" axis="1 0 0" damping="20"/>
-      <joint name="wrist_y" type="slide" axis="0 1 0" damping="20"/>
-      <joint name="wrist_z" type="slide" axis="0 0 1" damping="20"/>
-      <joint name="wrist_a" axis="0 0 1" damping="2" armature="0.01"/>
-      <joint name="wrist_b" axis="1 0 0" damping="2" armature="0.01"/>
-      <joint name="wrist_c" axis="0 1 0" damping="2" armature="0.01"/>
+      {wrist_joints}
       <geom name="palm" type="capsule" fromto="{_fmt(spec.palm_fromto)}" size="{spec.palm_radius:g}" {_HAND_BITS} rgba="0.25 0.25 0.3 1" mass="0.6"/>
       <geom name="wrist" type="capsule" fromto="0 0 -0.05 0 0 -0.12" size="0.02" contype="0" conaffinity="0" rgba="0.3 0.3 0.35 1" mass="0.2"/>
       <site name="palm" type="capsule" fromto="{_fmt(spec.palm_fromto)}" size="{palm_pad:g}" rgba="0 0 0 0"/>
       <site name="palm_centre" pos="0 0 0" size="0.004"/>
       {"".join(fingers)}
     </body>"""
-    wrist_act = "".join(
-        f'<position name="{n}" joint="{n}" kp="{kp:g}" kv="{kv:g}" forcerange="-{f:g} {f:g}"/>'
-        for n, kp, kv, f in [("wrist_x", 2000, 80, 40), ("wrist_y", 2000, 80, 40), ("wrist_z", 2000, 80, 40),
-                             ("wrist_a", 200, 8, 20), ("wrist_b", 200, 8, 20), ("wrist_c", 200, 8, 20)])
+    wrist_act = "".join(f'<position name="{n}" joint="{n}" kp="{kp:g}" kv="{kv:g}" forcerange="-{f:g} {f:g}"/>'
+                        for n, _, kp, kv, f in _WRIST)
     joint_of = {}
     for f in spec.fingers:
         joint_of.setdefault(f.flex_dof, f"{f.name}_prox")
@@ -385,14 +273,6 @@ def grasp_model(hand: str) -> tuple[mujoco.MjModel, SceneLayout]:
     """Compile `grasp_scene_xml(hand)`; return the model and its layout."""
     model = mujoco.MjModel.from_xml_string(grasp_scene_xml(hand))
     return model, scene_layout(model, hand)
-
-
-def preshape(hand: str, robot_grasp: str) -> tuple[np.ndarray, np.ndarray]:
-    """(open, closed) hand-DoF targets (n_dof,) of `robot_grasp` on `hand`; ValueError if unknown."""
-    spec = hand_spec(hand)
-    name = check_choice(robot_grasp, "robot_grasp", ROBOT_GRASPS[spec.name])
-    open_, closed = spec.preshapes[name]
-    return np.asarray(open_, float), np.asarray(closed, float)
 
 
 def hand_joint_qpos(model: mujoco.MjModel, hand: str, targets: np.ndarray) -> np.ndarray:

@@ -8,6 +8,8 @@ import jax.numpy as jnp
 import mujoco
 from mujoco import mjx
 
+from sim._mjx_compat import mass_matrix, with_mass_matrix
+
 # The integrators `mjx_step` orders after the constraint solver; both factorise a mass-like matrix.
 _INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_EULER): mjx.euler,
                 int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): mjx.implicit}
@@ -35,8 +37,8 @@ def mjx_step(mjx_model: mjx.Model, data: mjx.Data) -> mjx.Data:
     if integrate is None:
         raise ValueError(f"mjx_model: integrator {mjx_model.opt.integrator!r} not supported (Euler or implicitfast)")
     data = mjx.forward(mjx_model, data)
-    mass = data._impl.M + 0.0 * jnp.sum(data.qacc)
-    return integrate(mjx_model, data.tree_replace({"_impl.M": mass}))
+    mass = mass_matrix(data) + 0.0 * jnp.sum(data.qacc)
+    return integrate(mjx_model, with_mass_matrix(data, mass))
 
 
 @jax.jit

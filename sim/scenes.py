@@ -16,6 +16,17 @@ def checker_asset_xml(rgb1: str, rgb2: str, texrepeat: int = 8, texture_px: int 
             f'<material name="grid" texture="grid" texrepeat="{texrepeat} {texrepeat}"/></asset>')
 
 
+def offscreen_visual_xml(image_px: int, ambient: float, diffuse: float, offsamples: int | None = None) -> str:
+    """An MJCF `<visual>` for offscreen images: an `image_px` x `image_px` offscreen buffer, a grey
+    headlight (`ambient`, `diffuse` levels in [0, 1], a faint specular) and no shadow maps; `offsamples`
+    sets the multisampling (MuJoCo's default when None; 0 turns it off)."""
+    samples = "" if offsamples is None else f' offsamples="{offsamples:d}"'
+    a, d = f"{ambient:.3f}", f"{diffuse:.3f}"
+    return (f'<visual><global offwidth="{image_px:d}" offheight="{image_px:d}"/>'
+            f'<headlight ambient="{a} {a} {a}" diffuse="{d} {d} {d}" specular="0.05 0.05 0.05"/>'
+            f'<quality shadowsize="0"{samples}/></visual>')
+
+
 def tabletop_drop_scene(n_objects: int = 3, timestep_s: float = 0.004) -> str:
     """A table with `n_objects` free spheres and boxes above it, and a fixed camera named "front".
 

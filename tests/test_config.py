@@ -104,3 +104,43 @@ def test_default_out_folder(tmp_path, monkeypatch):
     _, run = parse_config(Cfg, PRESETS, "exp", [])
     assert run.path.parent == tmp_path.joinpath("runs", "exp").relative_to(tmp_path)
     assert (tmp_path / run.path / "config.json").exists()
+
+
+def test_writer_flattens_nested_metrics(tmp_path):
+    from experiments.config import RunOutput, StageResult, flatten_metrics
+
+    assert flatten_metrics({"a": {"b": 1, "c": {"d_cm": 2.0}}, "e": 3}) == {"a_b": 1, "a_c_d_cm": 2.0, "e": 3}
+    assert flatten_metrics({"rate_x": 0.5, "rate": {"x": 0.5}}) == {"rate_x": 0.5}  # the same key, the same value
+    with pytest.raises(ValueError, match="rate_x"):
+        flatten_metrics({"rate_x": 0.5, "rate": {"x": 0.25}})
+    run = RunOutput(tmp_path / "run", "t")
+    written = run.write({"error_cm": {"inner": np.float32(1.5), "noise": {"10cm": float("nan")}},
+                         "confusion": [[1, 0], [np.int64(2), 3]]}, "# r", {"img.png": np.zeros((4, 5, 3))})
+    saved = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert saved == written == {"error_cm_inner": 1.5, "error_cm_noise_10cm": "nan", "confusion": [[1, 0], [2, 3]]}
+    assert (tmp_path / "run" / "img.png").read_bytes()[:4] == b"\x89PNG"
+    bench = run.write({"ratio": {"5400": 2.0}, "config": {"sizes": (1, 2)}}, filename="bench.json", flat=False)
+    assert bench == json.loads((tmp_path / "run" / "bench.json").read_text()) == {
+        "ratio": {"5400": 2.0}, "config": {"sizes": [1, 2]}}
+    stages = [StageResult({"a": {"x_s": 1.0}}, {}, "## one"), StageResult({"b_s": 2.0}, {"sub/img.png": np.ones((2, 2, 3))})]
+    assert run.write_stages(stages, "# header", total_s=3.0) == {"a_x_s": 1.0, "b_s": 2.0, "total_s": 3.0}
+    assert (tmp_path / "run" / "report.md").read_text() == "# header\n\n## one\n"
+    assert (tmp_path / "run" / "sub" / "img.png").exists()
+
+
+def test_timing_helper():
+    import jax.numpy as jnp
+
+    from experiments.bench.timing import time_call
+
+    calls = []
+    t = time_call(lambda: calls.append(1) or jnp.ones(3) * len(calls), repeats=3)
+    assert len(calls) == 4 and len(t.times_s) == 3 and float(t.result[0]) == 4.0
+    assert t.median_s >= 0 and t.compile_s >= 0 and t.first_s == t.first_s
+    made = []
+    t = time_call(lambda x: x + 1, repeats=2, warmup=None, setup=lambda: made.append(0) or len(made), block=False)
+    assert made == [0, 0] and t.result == 3 and t.first_s != t.first_s and t.compile_s == 0.0
+    t = time_call(lambda: "full", repeats=1, warmup=lambda: calls.append("small"))
+    assert calls[-1] == "small" and t.result == "full"
+    with pytest.raises(ValueError, match="repeats"):
+        time_call(lambda: None, repeats=0)

@@ -1,21 +1,24 @@
 """Linear-chain CRF: exact inference against brute-force enumeration, padding, gradients, training."""
+import dataclasses
 import itertools
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 import crf_jax
-from crf_jax import chain, train
+from crf_jax import chain, inference, train
 
 K, T = 3, 5
 # jitted once per shape (and persistently cached): eager op-by-op dispatch would dominate the test time
-LOG_Z = jax.jit(chain.log_partition, static_argnames="method")
-MARGINALS = jax.jit(chain.marginals)
-VITERBI = jax.jit(chain.viterbi)
-CONST = jax.jit(chain.constant_path_log_prob)
-FB = jax.jit(chain.forward_backward)
+LOG_Z = jax.jit(inference.log_partition, static_argnames="method")
+MARGINALS = jax.jit(inference.marginals)
+VITERBI = jax.jit(inference.viterbi)
+CONST = jax.jit(inference.constant_path_log_prob)
+FB = jax.jit(inference.forward_backward)
 
 
 @pytest.fixture
@@ -56,9 +59,13 @@ def test_log_partition_marginals_viterbi_match_enumeration(x64, length):
         node_ref[np.arange(length), p] += pr
         pair_ref[np.arange(length - 1), p[:-1], p[1:]] += pr
     node, pair = MARGINALS(u, tr, length)
+    chex.assert_shape(node, (T, K))
+    chex.assert_shape(pair, (T - 1, K, K))
     np.testing.assert_allclose(node, node_ref, atol=1e-12)
     np.testing.assert_allclose(pair, pair_ref, atol=1e-12)
     labels, best = VITERBI(u, tr, length)
+    chex.assert_shape(labels, (T,))
+    chex.assert_rank(best, 0)
     expect = np.full(T, -1)
     expect[:length] = paths[np.argmax(scores)]
     np.testing.assert_array_equal(labels, expect)
@@ -94,9 +101,11 @@ def test_batched_and_single_sequence_agree(x64):
     trans = jnp.asarray(rng.normal(size=(K, K)))
     lengths = jnp.array([5, 1, 3, 4])
     batch = LOG_Z(unary, trans, lengths)
+    chex.assert_shape(batch, (4,))
     single = [LOG_Z(unary[b], trans, lengths[b]) for b in range(4)]
     np.testing.assert_allclose(batch, single, rtol=1e-12)
     alpha, beta, log_z = FB(unary, trans, lengths)
+    chex.assert_shape([alpha, beta], (4, T, K))
     for b in range(4):  # sum_k alpha_t + beta_t = log Z at every real frame
         lz = jax.nn.logsumexp(alpha[b, : lengths[b]] + beta[b, : lengths[b]], axis=-1)
         np.testing.assert_allclose(lz, log_z[b], rtol=1e-12)
@@ -114,7 +123,9 @@ def test_connectivity_window_matches_explicit_stacking(x64):
     model = _random_model(4, connectivity=2)
     X = rng.normal(size=(2, 6, 4))
     lengths = np.array([6, 4])
-    unary = np.asarray(chain.unary_potentials(model, jnp.asarray(X), jnp.asarray(lengths)))
+    unary = chain.unary_potentials(model, jnp.asarray(X), jnp.asarray(lengths))
+    chex.assert_shape(unary, (2, 6, K))
+    unary = np.asarray(unary)
     W = np.asarray(model.weights)
     for b in range(2):
         Xb = np.zeros((6 + 4, 4))
@@ -177,7 +188,7 @@ def test_objective_gradient_matches_finite_differences(x64):
 def test_marginals_are_the_gradient_of_log_z(x64):
     unary, trans = _problem(8)
     node, pair = MARGINALS(jnp.asarray(unary), jnp.asarray(trans), 4)
-    gu, gt = jax.grad(chain.log_partition, argnums=(0, 1))(jnp.asarray(unary), jnp.asarray(trans), 4)
+    gu, gt = jax.grad(inference.log_partition, argnums=(0, 1))(jnp.asarray(unary), jnp.asarray(trans), 4)
     np.testing.assert_allclose(gu, node, atol=1e-12)
     np.testing.assert_allclose(gt, pair.sum(0), atol=1e-12)
 
@@ -197,21 +208,27 @@ def test_fit_chain_learns_and_stops_by_tolerance_and_early_stopping():
     rng = np.random.default_rng(7)
     X, y = _toy_data(rng, 60)
     lengths = rng.integers(4, 13, 60)
-    model, info = crf_jax.fit_chain(X, y, lengths, n_labels=3, l2=0.1, max_iter=100)
+    model, info = crf_jax.fit_chain(X, y, lengths, n_labels=3, l2=0.1, options=crf_jax.FitOptions(max_iter=100))
+    assert isinstance(model, crf_jax.ChainCRF) and model.structure == crf_jax.ChainStructure(3, 3, 0)
+    chex.assert_shape(info.loss, (100,))
     assert bool(info.converged) and int(info.n_iter) < 100
     losses = np.asarray(info.loss)[: int(info.n_iter)]
     assert losses[-1] < losses[0]
     Xt, yt = _toy_data(rng, 40)
-    pred = np.asarray(crf_jax.predict(model, Xt))
+    pred = crf_jax.predict(model, Xt)
+    assert isinstance(pred, jax.Array)
+    chex.assert_shape(pred, yt.shape)
+    pred = np.asarray(pred)
     frame_only = np.argmax(Xt @ np.eye(3, 3).T, axis=-1)  # the class-mean direction alone, no chain
     assert np.mean(pred == yt) > np.mean(frame_only == yt) + 0.05
     # marginals of the fitted model are distributions
-    marg = np.asarray(crf_jax.predict_marginals(model, Xt[:3], [12, 5, 1]))
+    marg = crf_jax.predict_marginals(model, Xt[:3], [12, 5, 1])
+    chex.assert_shape(marg, (3, 12, 3))
     np.testing.assert_allclose(marg.sum(-1), (np.arange(12)[None] < np.array([[12], [5], [1]])).astype(float),
                                atol=1e-5)
     # early stopping with Adam and a validation split returns the best-validation iterate
-    model2, info2 = crf_jax.fit_chain(X, y, lengths, n_labels=3, l2=0.0, method="adam", learning_rate=0.5,
-                                      max_iter=60, validation=(Xt, yt), patience=3)
+    adam = crf_jax.FitOptions(method="adam", learning_rate=0.5, max_iter=60, patience=3)
+    model2, info2 = crf_jax.fit_chain(X, y, lengths, n_labels=3, l2=0.0, validation=(Xt, yt), options=adam)
     val = np.asarray(info2.val_loss)[: int(info2.n_iter)]
     assert int(info2.best_iter) == int(np.nanargmin(val)) + 1
     nll_best = -np.sum(np.asarray(crf_jax.log_likelihood(model2, Xt, yt)))
@@ -240,9 +257,51 @@ def test_bad_input_raises_value_error():
         crf_jax.fit_chain(X, bad, n_labels=3)
     with pytest.raises(ValueError, match="y"):
         crf_jax.fit_chain(X, y[:1], n_labels=3)
-    with pytest.raises(ValueError, match="method"):
-        crf_jax.fit_chain(X, y, n_labels=3, method="sgd")
+    with pytest.raises(ValueError, match="options"):
+        crf_jax.fit_chain(X, y, n_labels=3, options={"method": "adam"})
     with pytest.raises(ValueError, match="l2"):
         crf_jax.fit_chain(X, y, n_labels=3, l2=-1.0)
-    with pytest.raises(ValueError, match="sequences"):
+    with pytest.raises(ValueError, match="length 0"):
         crf_jax.pad_sequences([np.zeros((3, 2)), np.zeros((0, 2))])
+
+
+@pytest.mark.parametrize("field, value", [
+    ("method", "sgd"), ("optimizer", "adam"), ("max_iter", 0), ("memory_size", 1.5), ("learning_rate", 0.0),
+    ("gtol", -1.0), ("delta", float("nan")), ("period", 0), ("patience", 0), ("eval_every", True),
+])
+def test_fit_options_reject_bad_fields_by_name(field, value):
+    with pytest.raises(ValueError, match=field):
+        crf_jax.FitOptions(**{field: value})
+
+
+def test_fit_options_defaults_and_linear_defaults():
+    assert crf_jax.FitOptions() == crf_jax.FitOptions(method="lbfgs", max_iter=200, learning_rate=0.05, gtol=1e-5,
+                                                      delta=1e-5, period=10, patience=5, eval_every=1)
+    svm = crf_jax.FitOptions.for_linear("svm", max_iter=50)
+    assert (svm.method, svm.max_iter, svm.learning_rate, svm.delta, svm.patience) == ("adam", 50, 0.01, 1e-6, 10)
+    assert crf_jax.FitOptions.for_linear("logistic").method == "lbfgs"
+    with pytest.raises(ValueError, match="kind"):
+        crf_jax.FitOptions.for_linear("tree")
+
+
+def _quadratic(params, data):
+    _TRACES.append(1)
+    return jnp.sum(jnp.square(params - data))
+
+
+_TRACES: list = []
+
+
+def test_traced_options_do_not_recompile_and_any_optax_optimizer_works():
+    target = jnp.arange(3.0)
+    base = crf_jax.FitOptions(method="adam", max_iter=30, learning_rate=0.1)
+    first = crf_jax.minimize(_quadratic, jnp.zeros(3), target, options=base)
+    n_traces = len(_TRACES)
+    for change in (dict(gtol=1e-3), dict(delta=1e-2), dict(learning_rate=0.3), dict(period=3), dict(patience=2)):
+        crf_jax.minimize(_quadratic, jnp.zeros(3), target, options=dataclasses.replace(base, **change))
+    assert len(_TRACES) == n_traces  # tolerances, learning rate and counts are traced, not static
+    assert isinstance(first, crf_jax.FitResult) and float(first.info.loss[0]) < 14.0
+    sgd = crf_jax.FitOptions(optimizer=optax.sgd(0.25), max_iter=100, gtol=1e-6)
+    model, info = crf_jax.minimize(_quadratic, jnp.zeros(3), target, options=sgd)
+    np.testing.assert_allclose(model, target, atol=1e-4)
+    assert bool(info.converged)

@@ -1,6 +1,7 @@
 """HCRF, FCRF (exact and loopy BP), CHCRF fusion and history prior, linear baselines."""
 import itertools
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -31,7 +32,9 @@ def test_hcrf_log_probs_match_enumeration_over_hidden_paths(x64):
                          jnp.asarray(rng.normal(size=(K, H, H))))  # connectivity 1
     X = rng.normal(size=(2, T, D))
     lengths = np.array([4, 3])
-    got = np.asarray(hcrf.log_probs_jit(model, jnp.asarray(X), jnp.asarray(lengths)))
+    got = hcrf.log_probs_jit(model, jnp.asarray(X), jnp.asarray(lengths))
+    chex.assert_shape(got, (2, K))
+    got = np.asarray(got)
     W, b, tr = (np.asarray(a) for a in model)
     for n in range(2):
         L = lengths[n]
@@ -51,8 +54,13 @@ def test_fit_hcrf_classifies_separable_sequences():
     y = rng.integers(0, 2, 40)
     X = rng.normal(size=(40, 8, 2)).astype(np.float32)
     X[:, :, 0] += np.where(y == 1, 1.5, -1.5)[:, None]
-    model, info = crf_jax.fit_hcrf(X, y, n_hidden=2, l2=0.1, max_iter=50)
-    assert np.mean(crf_jax.hcrf_predict(model, X) == y) > 0.9
+    model, info = crf_jax.fit_hcrf(X, y, n_hidden=2, l2=0.1, options=crf_jax.FitOptions(max_iter=50))
+    assert model.structure == crf_jax.HCRFStructure(n_labels=2, n_hidden=2, n_features=2)
+    pred = crf_jax.hcrf_predict(model, X)
+    assert isinstance(pred, jax.Array)
+    chex.assert_shape(pred, (40,))
+    assert np.mean(np.asarray(pred) == y) > 0.9
+    chex.assert_shape(crf_jax.hcrf_log_probs(model, X[:3]), (3, 2))
     with pytest.raises(ValueError, match="y"):
         crf_jax.fit_hcrf(X, np.append(y, 1), n_hidden=2)
 
@@ -90,6 +98,7 @@ def test_fcrf_exact_matches_enumeration(x64):
     args = [jnp.asarray(a) for a in (ua, uo, Ta, To, C)]
     np.testing.assert_allclose(fcrf.exact_log_partition(*args, lengths), [log_z], rtol=1e-12)
     ga, go = fcrf.exact_marginals(*args, lengths)
+    chex.assert_shape([ga, go], [(1, 4, 2), (1, 4, 3)])
     np.testing.assert_allclose(ga[0], ma, atol=1e-12)
     np.testing.assert_allclose(go[0], mo, atol=1e-12)
 
@@ -106,6 +115,7 @@ def test_loopy_bp_is_exact_on_trees(x64, case):
         lengths = jnp.array([1])
     args = [jnp.asarray(a) for a in (ua, uo, Ta, To, C)]
     bp = fcrf.loopy_bp(*args, lengths, n_iter=10)
+    chex.assert_shape(bp.log_z, (1,))
     np.testing.assert_allclose(bp.log_z, fcrf.exact_log_partition(*args, lengths), rtol=1e-10)
     ea, eo = fcrf.exact_marginals(*args, lengths)
     np.testing.assert_allclose(bp.action, ea, atol=1e-10)
@@ -143,11 +153,17 @@ def test_fit_fcrf_exact_and_loopy_and_segments():
     lengths = rng.integers(3, T + 1, B)
     # exact inference with L-BFGS; loopy BP with Adam (one BP graph to compile instead of two: fast tests)
     for inference, method in (("exact", "lbfgs"), ("loopy", "adam")):
-        model, info = crf_jax.fit_fcrf(X, ya, yo, lengths, l2=0.1, inference=inference, method=method,
-                                       learning_rate=0.1, max_iter=60)
+        options = crf_jax.FitOptions(method=method, learning_rate=0.1, max_iter=60)
+        model, info = crf_jax.fit_fcrf(X, ya, yo, lengths, l2=0.1, inference=inference, options=options)
         pa, po = crf_jax.fcrf_predict_segments(model, X, lengths, method=inference)
-        assert np.mean(pa == a) > 0.8 and np.mean(po == o) > 0.8
-    lp = np.asarray(crf_jax.fcrf_segment_log_probs(model, X, lengths))
+        chex.assert_shape([pa, po], (B,))
+        assert np.mean(np.asarray(pa) == a) > 0.8 and np.mean(np.asarray(po) == o) > 0.8
+    assert model.structure == crf_jax.FCRFStructure(n_actions=2, n_objects=2, n_features=2)
+    marg = crf_jax.fcrf_marginals(model, X, lengths)
+    chex.assert_shape([marg.action, marg.object], (B, T, 2))
+    lp = crf_jax.fcrf_segment_log_probs(model, X, lengths)
+    chex.assert_shape(lp, (B, 2, 2))
+    lp = np.asarray(lp)
     assert np.all(np.exp(lp).sum(axis=(1, 2)) <= 1 + 1e-5)
     with pytest.raises(ValueError, match="y_object"):
         crf_jax.fit_fcrf(X, ya, yo[:-1], lengths)
@@ -158,12 +174,14 @@ def test_fit_fcrf_exact_and_loopy_and_segments():
 # ----------------------------------------------------------------------------------------------
 def test_chcrf_fusion_and_normaliser_by_hand():
     K = crf_jax.cooccurrence([0, 0, 1, 2, 2, 2], [0, 0, 1, 1, 2, 2], 3, 3)
-    np.testing.assert_allclose(K, np.array([[2, 0, 0], [0, 1, 0], [0, 1, 2]]) / 6)
+    assert isinstance(K, jax.Array)
+    np.testing.assert_allclose(K, np.array([[2, 0, 0], [0, 1, 0], [0, 1, 2]]) / 6, rtol=1e-6)
     Ks = crf_jax.cooccurrence([0], [1], 2, 2, smoothing=0.5)
-    np.testing.assert_allclose(Ks, np.array([[0.5, 1.5], [0.5, 0.5]]) / 3)
+    np.testing.assert_allclose(Ks, np.array([[0.5, 1.5], [0.5, 0.5]]) / 3, rtol=1e-6)
     pa = np.array([[0.6, 0.3, 0.1]])
     po = np.array([[0.2, 0.5, 0.3]])
     res = crf_jax.fuse(np.log(pa), np.log(po), K)
+    chex.assert_shape([res.log_joint, res.log_z, res.log_action, res.log_object], [(1, 3, 3), (1,), (1, 3), (1, 3)])
     joint = K * pa[0][:, None] * po[0][None, :]
     Z = joint.sum()  # = (2*0.6*0.2 + 0.3*0.5 + 0.1*0.5 + 2*0.1*0.3) / 6
     np.testing.assert_allclose(Z, (0.24 + 0.15 + 0.05 + 0.06) / 6)
@@ -186,12 +204,15 @@ def test_history_prior_eq10():
     prior = crf_jax.history_prior(hist, pos, np.array([0.0, 1.0]), default_distance=2.0)
     # (1/3) (0.25/2 + P_1/1 + P_2/sqrt(9+9))
     expect = (np.full((2, 2), 0.25 / 2) + hist[0] / 1.0 + hist[1] / np.sqrt(18.0)) / 3
-    np.testing.assert_allclose(prior, expect)
+    chex.assert_shape(prior, (2, 2))
+    np.testing.assert_allclose(prior, expect, rtol=1e-6)
     empty = crf_jax.history_prior(np.zeros((0, 2, 2)), np.zeros((0, 2)), np.zeros(2), default_distance=1.0)
     np.testing.assert_allclose(empty, np.full((2, 2), 0.25))
     lj, log_norm = crf_jax.apply_history(np.log(np.full((2, 2), 0.25)), prior)
-    np.testing.assert_allclose(np.exp(lj), prior / prior.sum())
-    np.testing.assert_allclose(log_norm, np.log(0.25 * prior.sum()))
+    chex.assert_shape([lj, log_norm], [(2, 2), ()])
+    prior = np.asarray(prior, np.float64)
+    np.testing.assert_allclose(np.exp(lj), prior / prior.sum(), rtol=1e-6)
+    np.testing.assert_allclose(log_norm, np.log(0.25 * prior.sum()), rtol=1e-6)
     with pytest.raises(ValueError, match="default_distance"):
         crf_jax.history_prior(hist, pos, np.zeros(2), default_distance=0.0)
     with pytest.raises(ValueError, match="history_positions"):
@@ -216,8 +237,13 @@ def test_linear_baselines(kind):
     y = rng.integers(0, 3, 300)
     centers = np.array([[2.0, 0.0], [-1.0, 1.7], [-1.0, -1.7]])
     X = centers[y] + 0.5 * rng.normal(size=(300, 2))
-    model, info = crf_jax.fit_linear(X, y, kind=kind, l2=0.01, max_iter=300, learning_rate=0.05)
-    assert np.mean(crf_jax.linear_predict(model, X) == y) > 0.97
+    options = crf_jax.FitOptions.for_linear(kind, max_iter=300, learning_rate=0.05)
+    model, info = crf_jax.fit_linear(X, y, kind=kind, l2=0.01, options=options)
+    assert model.structure == crf_jax.LinearStructure(n_labels=3, n_features=2)
+    pred = crf_jax.linear_predict(model, X)
+    assert isinstance(pred, jax.Array)
+    chex.assert_shape(pred, (300,))
+    assert np.mean(np.asarray(pred) == y) > 0.97
     if kind == "logistic":
         lp = np.asarray(crf_jax.linear_log_proba(model, X))
         np.testing.assert_allclose(np.exp(lp).sum(1), 1.0, rtol=1e-5)

@@ -1,5 +1,4 @@
 """Native MuJoCo and MJX-JAX run the Karlsruhe hand's grasps alike (see `tests/grasp_equivalence.py`)."""
-import sim  # noqa: F401
 from tests.grasp_equivalence import check_native_and_mjx_jax_agree
 
 

@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 
 import hog_jax
-import sim  # noqa: F401  (sets MUJOCO_GL before mujoco creates a GL context)
+import sim
 from experiments import grasp_recognition as gr
 from experiments.data.grasp_tests import (STAGES, clutter_background, random_set, sequence_set,
                                           skin_training_pixels, stage_subsets)
-from sim.grasp_objects import GRASP_CLASSES
+
+sim.setup_rendering()  # offscreen rendering (EGL) before any scene is rendered
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,6 @@
 """Grasp strategy, rollouts on every backend, virtual fingers, the experiment's smoke test."""
 import itertools
 
-import sim  # noqa: F401
 import jax.numpy as jnp
 import numpy as np
 import pytest

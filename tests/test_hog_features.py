@@ -1,5 +1,6 @@
 """hog_jax.hog against a float64 numpy reference (loops) and scikit-image's `hog`."""
 
+import chex
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -87,7 +88,7 @@ def test_matches_float64_reference(cfg, shape):
     rng = np.random.default_rng(hash((cfg, shape)) % 2**32)
     imgs = smooth_images(rng, 3, *shape)
     ours = np.asarray(hog(imgs, cfg))
-    assert ours.shape == (3, hog_dim(cfg))
+    chex.assert_shape(ours, (3, hog_dim(cfg)))
     for b in range(3):
         np.testing.assert_allclose(ours[b], ref_hog(imgs[b], cfg), rtol=2e-5, atol=1e-5 * np.abs(ours[b]).max())
 

@@ -1,4 +1,6 @@
 """hog_jax.knn: eqs. 3-5 by hand on tiny cases, rotation averaging, exact search vs brute force."""
+import chex
+import jax
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -19,6 +21,11 @@ def test_exact_search_matches_brute_force():
     data = rng.normal(size=(3000, 12)).astype(np.float32)  # one database block
     q = rng.normal(size=(70, 12)).astype(np.float32)
     res = exact_search(data, q, 7)
+    chex.assert_shape([res.indices, res.distances], (70, 7))
+    chex.assert_shape(res.n_scanned, (70,))
+    assert all(isinstance(a, jax.Array) for a in res)
+    one = exact_search(data, q[3], 7)  # one (D,) query -> (k,)
+    chex.assert_shape([one.indices, one.distances], (7,))
     idx, d = brute_knn(data, q, 7)
     np.testing.assert_array_equal(np.asarray(res.indices), idx)
     np.testing.assert_allclose(np.asarray(res.distances), d, rtol=1e-5)
@@ -72,7 +79,10 @@ def test_vote_ignores_missing_neighbours_and_underflow():
 def test_euler_quat_match_scipy_and_round_trip():
     rng = np.random.default_rng(3)
     e = np.stack([rng.uniform(-np.pi, np.pi, 50), rng.uniform(-1.5, 1.5, 50), rng.uniform(-np.pi, np.pi, 50)], 1)
-    q = np.asarray(euler_to_quat(jnp.asarray(e)))
+    q = euler_to_quat(e)  # numpy in, jax out
+    assert isinstance(q, jax.Array)
+    chex.assert_shape(q, (50, 4))
+    q = np.asarray(q)
     ref = Rotation.from_euler("ZYX", e).as_quat()  # (x, y, z, w)
     ref = np.concatenate([ref[:, 3:], ref[:, :3]], 1)
     np.testing.assert_allclose(np.abs(np.sum(q * ref, 1)), 1.0, atol=1e-5)  # same rotation (q ~ -q)
@@ -107,6 +117,9 @@ def test_predict_orientation_uses_only_the_winning_class():
     ori = np.radians([[10.0, 0, 0], [10.0, 0, 0], [90.0, 0, 0], [90.0, 0, 0]])
     model = fit(data, labels, ori, sigma=1.0)
     pred = predict(model, np.array([[0.1, 0.0]]), k=3)
+    chex.assert_shape([pred.label, pred.scores, pred.quat, pred.euler, pred.indices, pred.distances],
+                      [(1,), (1, 2), (1, 4), (1, 3), (1, 3), (1, 3)])
+    assert all(isinstance(a, jax.Array) for a in pred)
     assert int(pred.label[0]) == 0
     np.testing.assert_allclose(np.degrees(np.asarray(pred.euler[0])), [10.0, 0, 0], atol=1e-3)
 

@@ -1,4 +1,5 @@
 """hog_jax.lsh: recall against exact brute force, bucket structure, candidate counting, autotuning."""
+import chex
 import jax
 import numpy as np
 import pytest
@@ -29,6 +30,8 @@ def setup():
 def test_buckets_are_the_sign_codes(setup):
     data, _, _ = setup
     idx = build_index(jax.random.key(0), data, n_bits=6, n_tables=3)
+    chex.assert_shape([idx.planes, idx.center, idx.data, idx.keys, idx.order],
+                      [(3, 6, 16), (16,), data.shape, (3, len(data)), (3, len(data))])
     planes, center = np.asarray(idx.planes), np.asarray(idx.center)
     bits = ((data - center) @ planes.transpose(0, 2, 1) > 0)  # (T, N, K)
     codes = (bits * (1 << np.arange(6))).sum(-1)
@@ -67,6 +70,8 @@ def test_recall_grows_with_tables_and_reaches_exact(setup):
     assert recalls[0] < recalls[1] < recalls[2]
     assert recalls[2] >= 0.9
     res = query(idx, q, 10, 512)
+    chex.assert_shape([res.indices, res.distances], (len(q), 10))
+    chex.assert_shape(res.n_scanned, (len(q),))
     assert float(np.mean(res.n_scanned)) < len(data) / 2  # it did not scan everything
     # distances are exact Euclidean distances of the returned points, ascending
     found = np.asarray(res.indices)

@@ -1,6 +1,7 @@
 """hog_jax.segment: EM, median filter vs OpenCV, the skin model on real UCI pixels, whole frames."""
 from pathlib import Path
 
+import chex
 import cv2
 import jax
 import jax.numpy as jnp
@@ -129,6 +130,8 @@ def test_segment_frames_largest_seed_and_empty(tmp_path, toy_model):
     frames[2] = [90, 100, 120]  # no skin in the last frame
     model = toy_model
     seg = segment(model, frames, out_size=32, margin=0.0)
+    chex.assert_shape([seg.images, seg.masks], (3, 32, 32))
+    chex.assert_shape([seg.found, seg.boxes, seg.skin], [(3,), (3, 4), frames.shape[:3]])
     found = np.asarray(seg.found)
     assert found.tolist() == [True, True, False]
     for i in range(2):
@@ -150,14 +153,50 @@ def test_segment_frames_largest_seed_and_empty(tmp_path, toy_model):
     # the crops feed HOG with their masks
     import hog_jax
     x = hog_jax.hog(np.asarray(seg.images[:2]), mask=np.asarray(seg.masks[:2]))
-    assert x.shape == (2, 84) and np.all(np.isfinite(np.asarray(x)))
-    # persistence round trip
+    chex.assert_shape(x, (2, 84))
+    assert np.all(np.isfinite(np.asarray(x)))
+
+
+def test_skin_model_persistence_round_trip_and_checks(tmp_path, toy_model):
+    from lfd_common import read_file, save_arrays, write_npz
+
+    model = toy_model
+    frames, _ = make_frames(np.random.default_rng(4))
     path = save_skin_model(tmp_path / "skin", model)
-    back = load_skin_model(path)
+    assert path.name == "skin.npz"
+    kind, arrays, config, _ = read_file(path)
+    assert kind == "hog_jax.SkinModel"
+    assert config["structure"] == {"n_skin_components": 4, "n_background_components": 4, "chroma": "CrCb/255 BT.601"}
+    back = load_skin_model(tmp_path / "skin")  # no type argument; the path maps as save maps it
+    chex.assert_trees_all_equal(back, model)
     np.testing.assert_array_equal(np.asarray(skin_log_ratio(back, frames[0])), np.asarray(skin_log_ratio(model, frames[0])))
     with pytest.raises(ValueError, match="holds a"):
-        from lfd_common import save_arrays
         load_skin_model(save_arrays(tmp_path / "other", "phmm_jax.HMM", {"a": np.zeros(2)}))
+
+    def tampered(name, value):  # the saved file with one array replaced
+        bad = dict(arrays, **{name: value})
+        meta = np.load(path)["__lfd_meta__"]
+        return write_npz(tmp_path / f"bad_{name.replace('/', '_')}.npz", __lfd_meta__=meta, **bad)
+
+    with pytest.raises(ValueError, match="skin/means"):
+        load_skin_model(tampered("skin/means", np.zeros((3, 2), np.float32)))  # 3 components, structure says 4
+    chols = np.array(arrays["background/chols"])
+    chols[1, 0, 1] = 0.5  # not lower triangular
+    with pytest.raises(ValueError, match="background: covariances not positive definite"):
+        load_skin_model(tampered("background/chols", chols))
+    chols = np.array(arrays["skin/chols"])
+    chols[0, 1, 1] = -chols[0, 1, 1]
+    with pytest.raises(ValueError, match="skin: covariances not positive definite"):
+        load_skin_model(tampered("skin/chols", chols))
+    with pytest.raises(ValueError, match="skin: mixture weights sum to"):
+        load_skin_model(tampered("skin/log_weights", np.zeros(4, np.float32)))
+    with pytest.raises(ValueError, match="NaN"):
+        load_skin_model(tampered("threshold", np.float32(np.nan)))
+    with pytest.raises(ValueError, match="mixture weights"):  # a bad model is not written either
+        unnormalised = model.skin._replace(log_weights=model.skin.log_weights + 1)
+        save_skin_model(tmp_path / "never", model._replace(skin=unnormalised))
+    with pytest.raises(FileNotFoundError):
+        load_skin_model(tmp_path / "missing")
 
 
 def test_segment_bad_input(toy_model):

@@ -3,7 +3,6 @@ import numpy as np
 import pytest
 
 import hog_jax
-import sim  # noqa: F401  (sets MUJOCO_GL before mujoco creates a GL context)
 from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS
 from sim.grasp_views import (crop_hand, hand_center, look_at_rotation, render_grasp, render_views,
                              sphere_camera, view_euler, view_grid)

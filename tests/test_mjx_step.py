@@ -1,7 +1,6 @@
 """`sim.rollout.mjx_step`: the same physics as `mjx.step`, with its LAPACK calls ordered."""
 import re
 
-import sim  # noqa: F401
 import jax
 import jax.numpy as jnp
 import mujoco

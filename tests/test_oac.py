@@ -1,11 +1,13 @@
-"""Simulated OAC recordings (experiments/data/oac.py) and a smoke run of experiments/oac_recognition."""
+"""Simulated OAC recordings (experiments/data/oac/) and a smoke run of experiments/oac_recognition."""
 import json
 
 import numpy as np
 import pytest
 
-import sim  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+import sim
 from experiments.data import oac
+
+sim.setup_rendering()  # offscreen rendering (EGL) before any scene is rendered
 
 TINY = oac.OACSettings(seed=3, n_persons=3, n_repetitions=1, fps=3.0, image_px=24, object_px=16)
 
@@ -144,9 +146,10 @@ def test_experiment_smoke(tmp_path):
     ])
     saved = json.loads((tmp_path / "metrics.json").read_text())
     for table in ("table2", "table3", "table4", "table_lfd"):
-        assert table in saved
-    cell = saved["table3"]["actions"]["chcrf"]
-    assert set(cell) == {"median", "max"} and 0.0 <= cell["median"] <= cell["max"] <= 100.0
+        assert any(key.startswith(table + "_") for key in saved), table
+    cell = {stat: saved[f"table3_actions_chcrf_error_pct_{stat}"] for stat in ("median", "max")}
+    assert 0.0 <= cell["median"] <= cell["max"] <= 100.0
+    assert all(np.isscalar(v) for v in saved.values())  # flat keys, units in the names
     assert saved["runtime_s"] > 0 and metrics["n_recordings"] == 9
     assert "table2_actions_crf_conn0_error_pct_median" in saved
     report = (tmp_path / "report.md").read_text()
@@ -161,7 +164,9 @@ def test_demo_stage_classifies_one_recording(tmp_path):
     from experiments.config import RunOutput
     from experiments.oac_recognition import demo_stage
 
-    metrics, section = demo_stage(SimpleNamespace(seed=0), RunOutput(tmp_path, "demo"))
+    result = demo_stage(SimpleNamespace(seed=0))
+    metrics, section = result.metrics, result.report
+    RunOutput(tmp_path, "demo").write(metrics, section, result.figures)
     assert metrics["oac_demo_true_class"] in oac.CLASSES
     assert 0.0 < metrics["oac_demo_p_joint"] <= 1.0 and np.isfinite(metrics["oac_demo_log_z"])
     assert "CHCRF" in section and (tmp_path / "oac_demo.png").exists()

@@ -1,4 +1,5 @@
 """phmm_jax inference against brute-force enumeration, a dense float64 numpy HMM and hmmlearn."""
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 from scipy.special import logsumexp
 
 import phmm_jax as P
-from phmm_jax import api, inference
+from phmm_jax import _batched, inference
 from phmm_jax.emissions import gaussian_log_density, gaussian_log_density_columns, stacked_log_density_columns
 from phmm_jax.model import transitions_from_durations
 from tests.phmm_reference import brute_force, dense_forward_backward, emission_table
@@ -57,6 +58,15 @@ def test_loglik_viterbi_posteriors_against_enumeration(cfg):
     loglik = np.asarray(P.log_likelihood(hmm, X, lengths))
     states, best = map(np.asarray, P.viterbi(hmm, X, lengths))
     post = P.posteriors(hmm, X, lengths)
+    msgs = P.messages(hmm, X, lengths)
+    n, p = cfg.n_states, cfg.n_pseudo
+    chex.assert_shape((loglik, states, best), [(3,), (3, 9), (3,)])
+    chex.assert_shape(list(post), [(3, 9, n), (3, 9, n, p), (3,)])
+    chex.assert_shape(list(msgs), [(3, 9, n, p), (3, 9, n, p), (3,)])
+    chex.assert_trees_all_close(msgs.loglik, post.loglik, rtol=1e-10)
+    # The messages give the same pseudo-state posteriors, batch-first like `posteriors`.
+    from_messages = jnp.exp(msgs.log_alpha + msgs.log_beta - msgs.loglik[:, None, None, None])
+    chex.assert_trees_all_close(from_messages, post.pseudo, atol=1e-10)
     dense = P.expand_to_dense(hmm)
     for b, length in enumerate(lengths):
         x = X[b, :length]
@@ -114,7 +124,8 @@ def test_gradient_posteriors_and_counts_match_forward_backward(cfg):
     hmm = random_hmm(cfg, rng)
     X, lengths = rng.normal(size=(3, 9, 2)), np.array([9, 7, 8])  # feasible for every structure
     weights = np.array([1.0, 0.5, 2.0])
-    log_b = api.emission_columns(hmm, jnp.asarray(X))  # (T, N, B)
+    log_b = _batched.emission_columns(hmm, jnp.asarray(X))
+    chex.assert_shape(log_b, (9, cfg.n_states, 3))  # column layout (T, N, B)
     chain = inference.chain(hmm)
     stats = inference.expected_statistics(chain, log_b, jnp.asarray(lengths), jnp.asarray(weights))
     state, pseudo, _ = inference.posteriors(chain, log_b, jnp.asarray(lengths))  # (T, N, B), (T, B, N, P)
@@ -150,7 +161,7 @@ def test_padding_leaks_into_neither_values_nor_gradients():
     padded = np.concatenate([x, np.full((5, 2), 1e3)])[None]
 
     def loglik_of_means(means, X, lengths):
-        return api.batch_log_likelihood(hmm.replace(means=means), X, lengths)[0]
+        return _batched.batch_log_likelihood(hmm.replace(means=means), X, lengths)[0]
 
     short = jax.value_and_grad(loglik_of_means)(hmm.means, jnp.asarray(x[None]), jnp.asarray([7]))
     long = jax.value_and_grad(loglik_of_means)(hmm.means, jnp.asarray(padded), jnp.asarray([7]))
@@ -251,8 +262,8 @@ def test_emissions_of_unreachable_states_are_skipped_exactly(cfg):
     X = jnp.asarray(rng.normal(size=(batch, n_frames, 2)))
     lengths = jnp.asarray(rng.integers(12, n_frames + 1, size=batch))
     chain = inference.chain(hmm)
-    banded = api.emission_columns(hmm, X)
-    full = api.emission_columns(hmm, X, all_states=True)
+    banded = _batched.emission_columns(hmm, X)
+    full = _batched.emission_columns(hmm, X, all_states=True)
     assert np.isneginf(np.asarray(banded)).any() == cfg.explicit_duration
     messages = inference.forward_backward(chain, full, lengths)
     np.testing.assert_allclose(inference.forward_loglik(chain, banded, lengths), messages.loglik, rtol=1e-12)

@@ -92,7 +92,10 @@ def test_smoke_run(tmp_path):
                 "robot_reach_error_cm_mean", "robot_reach_error_cm_max"):
         assert np.isfinite(saved[key]), key
     assert saved["n_test_sequences"] == 18
-    assert set(saved["param_error_cm_noise"]) == {"0", "10"} and set(saved["classification_rate_noise"]) == {"0", "10"}
+    for key in ("param_error_cm_noise", "param_error_cm_noise_2x2", "classification_rate_noise",
+                "classification_rate_noise_2x2", "classification_rate_noise_hmm"):
+        assert {f"{key}_0cm", f"{key}_10cm"} <= set(saved), key
+    assert all(np.isscalar(v) for v in saved.values())  # flat keys, units in the names
     for key in ("classification_rate_phmm_2x2", "classification_rate_hmm", "classification_rate_diagnostic_baseline"):
         assert 0.0 <= saved[key] <= 1.0
     assert saved["robot_elbow_plane_distance_mm_max"] < 0.1  # the robot elbow stays in the human arm plane
@@ -105,7 +108,9 @@ def test_smoke_run(tmp_path):
 def test_demo_stage(tmp_path):
     from experiments.config import RunOutput
 
-    metrics, section = E.demo_stage(types.SimpleNamespace(seed=1), RunOutput(tmp_path, "demo"))
+    result = E.demo_stage(types.SimpleNamespace(seed=1))
+    metrics, section = result.metrics, result.report
+    RunOutput(tmp_path, "demo").write(metrics, section, result.figures)
     assert (tmp_path / "phmm_demo.png").stat().st_size > 0
     assert metrics["phmm_demo_action_recognised"] in tt.ACTIONS
     assert np.isfinite(metrics["phmm_demo_target_error_cm"]) and "phmm_demo.png" in section

@@ -1,9 +1,19 @@
 """EM, gradient fitting, synchronised PHMM training, recognition, synthesis and persistence."""
+import dataclasses
+import re
+
+import chex
+import jax
+import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 import phmm_jax as P
-from phmm_jax.synthesis import hermite_spline
+from lfd_common import save_arrays
+from phmm_jax.em import em_step
+from phmm_jax.parametric import batch_phmm_log_likelihood
+from phmm_jax.synthesis import hermite_spline, multilinear_map
 
 CORNERS = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [0.0, 3.0]])
 
@@ -23,8 +33,10 @@ def square_walk(rng, n, end_shift=0.0, noise=0.2):
 @pytest.mark.parametrize("max_duration", [6, None])
 def test_em_increases_likelihood_and_recovers_the_walk(max_duration):
     rng = np.random.default_rng(0)
-    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=max_duration, n_iter=30, tol=1e-6)
-    hmm, history = P.fit_hmm(square_walk(rng, 40), config=cfg, return_history=True)
+    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=max_duration)
+    hmm, history = P.fit_hmm(square_walk(rng, 40), config=cfg, options=P.FitOptions(max_iter=30, tol=1e-6),
+                             return_history=True)
+    chex.assert_shape((hmm.means, hmm.covariances), [(4, 2), (4, 2, 2)])
     assert np.all(np.diff(history) > -1e-4)  # EM never decreases the likelihood (float32 slack)
     np.testing.assert_allclose(np.asarray(hmm.means), CORNERS, atol=0.15)
     np.testing.assert_allclose(np.asarray(P.expected_durations(hmm)), 3.5, atol=0.5)
@@ -37,9 +49,9 @@ def test_em_increases_likelihood_and_recovers_the_walk(max_duration):
 def test_gradient_fit_reaches_the_em_likelihood():
     rng = np.random.default_rng(1)
     seqs = square_walk(rng, 30)
-    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=6, n_iter=100, tol=1e-7)
-    em = P.fit_hmm(seqs, config=cfg)
-    grad = P.fit_hmm_gradient(seqs, config=cfg, n_steps=150)
+    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=6)
+    em = P.fit_hmm(seqs, config=cfg, options=P.FitOptions(max_iter=100, tol=1e-7))
+    grad = P.fit_hmm_gradient(seqs, config=cfg, options=P.FitOptions(gradient_steps=150))
     n_frames = sum(len(s) for s in seqs)
     em_ll = float(np.sum(P.log_likelihood(em, seqs))) / n_frames
     grad_ll = float(np.sum(P.log_likelihood(grad, seqs))) / n_frames
@@ -48,7 +60,8 @@ def test_gradient_fit_reaches_the_em_likelihood():
 
 def test_degenerate_data_is_floored_not_nan():
     flat = [np.zeros((12, 3)) for _ in range(4)]  # zero variance in every dimension
-    hmm = P.fit_hmm(flat, config=P.HMMConfig(n_states=3, min_duration=2, max_duration=5, n_iter=3))
+    hmm = P.fit_hmm(flat, config=P.HMMConfig(n_states=3, min_duration=2, max_duration=5),
+                    options=P.FitOptions(max_iter=3))
     assert np.all(np.isfinite(np.asarray(hmm.covariances)))
     assert np.all(np.isfinite(np.asarray(P.log_likelihood(hmm, flat))))
 
@@ -70,8 +83,8 @@ def phase_walk(rng, phi, n):
 def walk_phmm():
     rng = np.random.default_rng(2)
     data = [phase_walk(rng, phi, 8) for phi in (0.0, 0.5, 1.0)]
-    cfg = P.HMMConfig(n_states=8, min_duration=3, max_duration=6, n_iter=15)
-    return P.fit_phmm([d[0] for d in data], (3,), cfg), data
+    cfg = P.HMMConfig(n_states=8, min_duration=3, max_duration=6)
+    return P.fit_phmm([d[0] for d in data], (3,), cfg, options=P.FitOptions(max_iter=15)), data
 
 
 def test_synchronised_local_models_are_aligned(walk_phmm):
@@ -98,11 +111,6 @@ def test_interpolation_is_d_linear_and_differentiable(walk_phmm):
     mid = P.interpolate(phmm, np.array([0.25]))
     np.testing.assert_allclose(np.asarray(mid.means),
                                0.5 * np.asarray(phmm.local.means[0] + phmm.local.means[1]), atol=1e-5)
-    import jax
-    import jax.numpy as jnp
-
-    from phmm_jax.parametric import batch_phmm_log_likelihood
-
     X, lengths = jnp.asarray(np.stack([x[0][:36]])), jnp.asarray([36])
     f = lambda phi: batch_phmm_log_likelihood(phmm, X, lengths, phi[None])[0]  # noqa: E731
     phi = jnp.asarray([0.3])
@@ -121,6 +129,7 @@ def test_recognize_finds_class_and_parameter(walk_phmm):
         tests += phase_walk(rng, phi, 1)[0]
     mirrored = [s * np.array([1.0, -1.0]) for s in tests]
     rec = P.recognize([phmm, other], tests + mirrored)
+    chex.assert_shape((rec.label, rec.phi, rec.loglik), [(6,), (6, 2, 1), (6, 2)])
     np.testing.assert_array_equal(rec.label, [0, 0, 0, 1, 1, 1])
     np.testing.assert_allclose(rec.phi[:3, 0, 0], true_phi, atol=0.08)
     with pytest.raises(ValueError, match="phi: expected 1 parameter"):
@@ -140,16 +149,13 @@ def test_synthesis_passes_through_the_state_means(walk_phmm):
     phmm, _ = walk_phmm
     hmm = phmm.corner((2,))
     movement = np.asarray(P.synthesize(phmm, [1.0], length=200))
-    assert movement.shape == (200, 2)
+    chex.assert_shape(movement, (200, 2))
     np.testing.assert_allclose(movement[0], np.asarray(hmm.means[0]), atol=1e-4)
     np.testing.assert_allclose(movement[-1], np.asarray(hmm.means[-1]), atol=1e-4)
-    batch = np.asarray(P.synthesize(phmm, np.array([[0.0], [1.0]]), length=50))
-    assert batch.shape == (2, 50, 2)
+    chex.assert_shape(P.synthesize(phmm, np.array([[0.0], [1.0]]), length=50), (2, 50, 2))
 
 
 def test_hermite_spline_is_c1():
-    import jax.numpy as jnp
-
     times = jnp.asarray([0.0, 1.0, 2.5, 4.0])
     knots = jnp.asarray([[0.0], [1.0], [0.0], [2.0]])
     eps = 1e-3
@@ -165,17 +171,36 @@ def test_target_to_phi_rectangular_and_warped():
     np.testing.assert_allclose(phi, [[0.5, 0.5], [0.75, 0.0], [-0.1, 1.0]], atol=1e-5)
     warped = np.array([[[0.0, 0.0], [0.1, 1.0]], [[1.0, 0.2], [1.3, 1.4]]])
     truth = np.array([[0.3, 0.6], [0.8, 0.1]])
-    import jax.numpy as jnp
-
-    from phmm_jax.synthesis import multilinear_map
-
     targets = np.stack([np.asarray(multilinear_map(jnp.asarray(warped), jnp.asarray(p))) for p in truth])
     np.testing.assert_allclose(P.target_to_phi(warped, targets), truth, atol=1e-4)
     with pytest.raises(ValueError, match="targets: expected points of dimension 2"):
         P.target_to_phi(warped, np.zeros((1, 3)))
 
 
-def test_save_load_round_trip(tmp_path, walk_phmm):
+def test_fit_options_are_validated_and_never_retrace():
+    for field, value in (("local_max_iter", -1), ("freeze_means_after", -1), ("max_iter", -2), ("tol", -1.0),
+                         ("reg_covar", float("nan")), ("gradient_steps", 1.5), ("optimizer", "adam")):
+        with pytest.raises(ValueError, match=f"^{field}:"):
+            P.FitOptions(**{field: value})
+    with pytest.raises(ValueError, match="options: expected a phmm_jax.FitOptions"):
+        P.fit_hmm(square_walk(np.random.default_rng(5), 4), config=P.HMMConfig(4, 2, 5), options={"max_iter": 2})
+    with pytest.raises(TypeError):
+        P.HMMConfig(n_states=4, n_iter=3)  # fit options are no longer part of the structure
+    seqs = square_walk(np.random.default_rng(6), 6)
+    cfg = P.HMMConfig(n_states=4, min_duration=2, max_duration=5)
+    P.fit_hmm(seqs, config=cfg, options=P.FitOptions(max_iter=2))
+    traces = em_step._cache_size()
+    for options in (P.FitOptions(max_iter=2, tol=1e-7), P.FitOptions(max_iter=3, reg_covar=1e-2, duration_pseudocount=0.1)):
+        hmm = P.fit_hmm(seqs, config=cfg, options=options)
+    assert em_step._cache_size() == traces  # real-valued options are traced, not static
+    assert hmm.config == cfg
+    adam = P.fit_hmm_gradient(seqs, config=cfg, options=P.FitOptions(gradient_steps=30, optimizer=optax.adam(0.05)),
+                              return_history=True)[1]
+    chex.assert_shape(adam, (30,))
+    assert float(adam[-1]) < float(adam[0])  # any optax optimiser fits
+
+
+def test_save_load_round_trip(tmp_path, walk_phmm, monkeypatch):
     phmm, _ = walk_phmm
     hmm = phmm.corner((0,))
     for model in (hmm, phmm):
@@ -185,15 +210,61 @@ def test_save_load_round_trip(tmp_path, walk_phmm):
         a = loaded.local if isinstance(loaded, P.PHMM) else loaded
         b = model.local if isinstance(model, P.PHMM) else model
         assert a.config == b.config
-        for name in ("means", "covariances", "log_cont", "log_exit"):
-            np.testing.assert_array_equal(np.asarray(getattr(a, name)), np.asarray(getattr(b, name)))
+        chex.assert_trees_all_close(loaded, model, rtol=0, atol=0)
     assert P.load(tmp_path / "PHMM.npz").grid_shape == (3,)
+    monkeypatch.chdir(tmp_path)
+    P.save("model", hmm)  # the same name loads: ".npz" is appended by both
+    chex.assert_trees_all_close(P.load("model"), hmm, rtol=0, atol=0)
     broken = tmp_path / "broken.npz"
     broken.write_bytes((tmp_path / "HMM.npz").read_bytes()[:200])
     with pytest.raises(ValueError, match="truncated or corrupt"):
         P.load(broken)
-    from lfd_common import save_arrays
-
     other = save_arrays(tmp_path / "other", "crf_jax.ChainCRF", {"w": np.zeros(2)})
-    with pytest.raises(ValueError, match="neither a phmm_jax.HMM nor a phmm_jax.PHMM"):
+    with pytest.raises(ValueError, match=r"other.npz holds a 'crf_jax.ChainCRF', expected one of \['phmm_jax.HMM'"):
         P.load(other)
+
+
+def _hmm_file(path, hmm, config=None, **arrays):
+    """An HMM file as `save` writes it, with arrays or the structure replaced."""
+    fields = {name: np.asarray(getattr(hmm, name)) for name in ("means", "covariances", "log_cont", "log_exit")}
+    structure = dataclasses.asdict(config or hmm.config)
+    return save_arrays(path, "phmm_jax.HMM", {**fields, **arrays}, {"structure": structure})
+
+
+def _two_state_hmm():
+    """2 states of 1-2 steps each, D = 2."""
+    half = np.log(0.5)
+    return P.HMM(jnp.asarray([[0.0, 0.0], [1.0, 1.0]]), jnp.stack([jnp.eye(2)] * 2),
+                 jnp.asarray([[half, -np.inf]] * 2), jnp.asarray([[half, 0.0]] * 2),
+                 P.HMMConfig(n_states=2, min_duration=1, max_duration=2))
+
+
+def test_load_rejects_arrays_that_disagree_with_the_structure(tmp_path):
+    hmm = _two_state_hmm()
+    P.load(_hmm_file(tmp_path / "good", hmm))
+    means = np.asarray(hmm.means).copy()
+    means[1, 1] = np.nan
+    not_pd = np.asarray(hmm.covariances).copy()
+    not_pd[1] = np.diag([1.0, -1.0])
+    cases = {
+        "nan_means": ({"means": means}, None, "array 'means': contains 1 NaN"),
+        "not_pd": ({"covariances": not_pd}, None, "covariances: not positive definite"),
+        "unnormalised": ({"log_exit": np.asarray(hmm.log_exit) - 0.5}, None, "do not sum to 1"),
+        "forbidden": ({"log_cont": np.zeros((2, 2))}, None, "log_cont: .* -inf where the structure forbids"),
+        "three_means": ({"means": np.zeros((3, 2))}, None, r"array 'means': expected shape \(2, 'D'\)"),
+        "five_states": ({}, P.HMMConfig(n_states=5, min_duration=1, max_duration=2), r"expected shape \(5, 'D'\)"),
+        "other_dim": ({"means": np.zeros((2, 3))}, None, "array 'covariances': expected shape"),
+    }
+    for name, (arrays, config, message) in cases.items():
+        path = _hmm_file(tmp_path / name, hmm, config, **arrays)
+        with pytest.raises(ValueError, match=f"path: {re.escape(str(path))}.*{message}"):
+            P.load(path)
+    corners = P.PHMM(jax.tree_util.tree_map(lambda a: jnp.stack([a] * 4), hmm), (2, 2))
+    P.load(P.save(tmp_path / "grid_2x2", corners))
+    local = {f"local/{k}": np.asarray(getattr(corners.local, k)) for k in ("means", "covariances", "log_cont", "log_exit")}
+    structure = {"hmm": dataclasses.asdict(hmm.config), "grid_shape": [3, 3]}  # 9 corners, the arrays have 4
+    path = save_arrays(tmp_path / "grid_3x3", "phmm_jax.PHMM", local, {"structure": structure})
+    with pytest.raises(ValueError, match=re.escape(f"path: {path}") + r".*array 'local/means': expected shape \(9, 2, 'D'\)"):
+        P.load(path)
+    with pytest.raises(ValueError, match="model: .*not positive definite"):
+        P.save(tmp_path / "bad", hmm.replace(covariances=jnp.asarray(not_pd)))

@@ -1,5 +1,4 @@
 """Robot hand models: compile, MJX support, wrist kinematics, couplings, touch sensors, bad input."""
-import sim  # noqa: F401
 import mujoco
 import numpy as np
 import pytest

@@ -33,6 +33,8 @@ import time
 
 import numpy as np
 
+from experiments.bench.timing import time_call
+from experiments.config import parse_config
 from lfd_common import enable_compilation_cache
 
 
@@ -111,113 +113,99 @@ def to_crfsuite(X: np.ndarray, y: np.ndarray | None = None):
     return xs, ys
 
 
+def crf_jax_stage(cfg: BenchConfig, data) -> dict:
+    """crf_jax: training (numpy -> fit_chain -> parameters, warm; compile apart) and Viterbi on the test set."""
+    import crf_jax
+
+    X_tr, y_tr, X_te, y_te = data
+    options = crf_jax.FitOptions(method="lbfgs", max_iter=cfg.max_iter, memory_size=cfg.memory_size,
+                                 delta=cfg.delta, period=cfg.period)
+    fit_kw = dict(n_labels=cfg.n_labels, l2=cfg.c2, options=options)
+    train = time_call(lambda: crf_jax.fit_chain(X_tr, y_tr, **fit_kw), cfg.repeats)
+    model, info = train.result
+    obj = float(-np.sum(np.asarray(crf_jax.log_likelihood(model, X_tr, y_tr)))
+                + cfg.c2 * sum(float(np.sum(np.square(np.asarray(p)))) for p in model))
+    infer = time_call(lambda: np.asarray(crf_jax.predict(model, X_te)), cfg.repeats,
+                      warmup=lambda: crf_jax.predict(model, X_te))
+    out = {"train_s_crf_jax": train.median_s, "train_first_call_s_crf_jax": train.first_s,
+           "compile_s_crf_jax_approx": train.first_s - train.median_s, "iterations_crf_jax": int(info.n_iter),
+           "objective_crf_jax": obj, "inference_s_crf_jax": infer.median_s,
+           "accuracy_crf_jax": float(np.mean(infer.result == y_te))}
+    print(f"crf_jax: train {out['train_s_crf_jax']:.3f} s ({out['iterations_crf_jax']} iterations, first call incl. "
+          f"compile {train.first_s:.3f} s), objective {obj:.4f}, test accuracy {out['accuracy_crf_jax']:.4f}, "
+          f"inference {infer.median_s:.4f} s")
+    return out
+
+
+def crfsuite_stage(cfg: BenchConfig, data) -> dict:
+    """CRFsuite: dict conversion, `append` and `Trainer.train` timed apart; `Tagger.tag` per test sequence."""
+    import pycrfsuite
+
+    X_tr, y_tr, X_te, y_te = data
+    t0 = time.perf_counter()
+    xs_tr, ys_tr = to_crfsuite(X_tr, y_tr)
+    xs_te, _ = to_crfsuite(X_te)
+    convert_s = time.perf_counter() - t0
+
+    def trainer():
+        t = pycrfsuite.Trainer(algorithm="lbfgs", verbose=False)
+        t.set_params({
+            "c1": 0.0, "c2": cfg.c2, "feature.minfreq": -1e300, "max_iterations": cfg.max_iter,
+            "num_memories": cfg.memory_size, "delta": cfg.delta, "period": cfg.period,
+            "feature.possible_states": True, "feature.possible_transitions": True,
+        })
+        return t
+
+    def append(t):
+        for xseq, yseq in zip(xs_tr, ys_tr):
+            t.append(xseq, yseq)
+        return t
+
+    with tempfile.TemporaryDirectory() as tmp:
+        model_path = os.path.join(tmp, "crf.crfsuite")
+        appended = time_call(append, cfg.repeats, warmup=None, setup=trainer, block=False)
+        train = time_call(lambda t: (t.train(model_path), t)[1], cfg.repeats, warmup=None,
+                          setup=lambda: append(trainer()), block=False)
+        log = train.result.logparser
+        n_iter = len(log.iterations)
+        obj = float(log.iterations[-1]["loss"]) if log.iterations else float("nan")
+        tagger = pycrfsuite.Tagger()
+        tagger.open(model_path)
+        infer = time_call(lambda: [tagger.tag(xseq) for xseq in xs_te], cfg.repeats, warmup=None, block=False)
+        tagger.close()
+    out = {"train_s_crfsuite": train.median_s, "append_s_crfsuite": appended.median_s,
+           "dict_conversion_s_crfsuite": convert_s, "inference_s_crfsuite": infer.median_s,
+           "iterations_crfsuite": n_iter, "objective_crfsuite": obj,
+           "accuracy_crfsuite": float(np.mean(np.array([[int(v) for v in seq] for seq in infer.result]) == y_te))}
+    print(f"crfsuite: train {train.median_s:.3f} s ({n_iter} iterations), append {appended.median_s:.3f} s, "
+          f"dict conversion (train+test) {convert_s:.3f} s, objective {obj:.4f}, "
+          f"test accuracy {out['accuracy_crfsuite']:.4f}, inference {infer.median_s:.4f} s")
+    return out
+
+
 def main(argv=None):
     enable_compilation_cache()
     import jax
-    import pycrfsuite
-
-    import crf_jax
-    from experiments.config import parse_config
 
     cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_crf", argv=argv)
     rng = np.random.default_rng(cfg.seed)
     X_tr, y_tr, params = make_data(cfg, cfg.n_train, rng)
     X_te, y_te, _ = make_data(cfg, cfg.n_test, rng, params)
-    B, T, D = X_tr.shape
     print(f"data: train {X_tr.shape}, test {X_te.shape}, {cfg.n_labels} labels, c2={cfg.c2}")
-
-    # ---------------- crf_jax ----------------
-    fit_kw = dict(n_labels=cfg.n_labels, l2=cfg.c2, method="lbfgs", max_iter=cfg.max_iter,
-                  memory_size=cfg.memory_size, delta=cfg.delta, period=cfg.period)
-    t0 = time.perf_counter()
-    model, info = crf_jax.fit_chain(X_tr, y_tr, **fit_kw)
-    jax.block_until_ready(model)
-    first_s = time.perf_counter() - t0
-    jax_train = []
-    for _ in range(cfg.repeats):
-        t0 = time.perf_counter()
-        model, info = crf_jax.fit_chain(X_tr, y_tr, **fit_kw)
-        jax.block_until_ready(model)
-        jax_train.append(time.perf_counter() - t0)
-    jax_train_s = float(np.median(jax_train))
-    n_iter_jax = int(info.n_iter)
-    jax_obj = float(-np.sum(np.asarray(crf_jax.log_likelihood(model, X_tr, y_tr)))
-                    + cfg.c2 * sum(float(np.sum(np.square(np.asarray(p)))) for p in model))
-    pred = crf_jax.predict(model, X_te)
-    jax.block_until_ready(pred)
-    jax_inf = []
-    for _ in range(cfg.repeats):
-        t0 = time.perf_counter()
-        pred = np.asarray(crf_jax.predict(model, X_te))
-        jax_inf.append(time.perf_counter() - t0)
-    jax_inf_s = float(np.median(jax_inf))
-    acc_jax = float(np.mean(pred == y_te))
-    print(f"crf_jax: train {jax_train_s:.3f} s ({n_iter_jax} iterations, first call incl. compile "
-          f"{first_s:.3f} s), objective {jax_obj:.4f}, test accuracy {acc_jax:.4f}, inference {jax_inf_s:.4f} s")
-
-    # ---------------- CRFsuite ----------------
-    t0 = time.perf_counter()
-    xs_tr, ys_tr = to_crfsuite(X_tr, y_tr)
-    xs_te, _ = to_crfsuite(X_te)
-    convert_s = time.perf_counter() - t0
-    crf_train, crf_append = [], []
-    with tempfile.TemporaryDirectory() as tmp:
-        model_path = os.path.join(tmp, "crf.crfsuite")
-        for _ in range(cfg.repeats):
-            trainer = pycrfsuite.Trainer(algorithm="lbfgs", verbose=False)
-            trainer.set_params({
-                "c1": 0.0, "c2": cfg.c2, "feature.minfreq": -1e300, "max_iterations": cfg.max_iter, "num_memories": cfg.memory_size,
-                "delta": cfg.delta, "period": cfg.period,
-                "feature.possible_states": True, "feature.possible_transitions": True,
-            })
-            t0 = time.perf_counter()
-            for xseq, yseq in zip(xs_tr, ys_tr):
-                trainer.append(xseq, yseq)
-            crf_append.append(time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            trainer.train(model_path)
-            crf_train.append(time.perf_counter() - t0)
-        log = trainer.logparser
-        n_iter_crf = len(log.iterations)
-        crf_obj = float(log.iterations[-1]["loss"]) if log.iterations else float("nan")
-        tagger = pycrfsuite.Tagger()
-        tagger.open(model_path)
-        crf_inf = []
-        for _ in range(cfg.repeats):
-            t0 = time.perf_counter()
-            crf_pred = [tagger.tag(xseq) for xseq in xs_te]
-            crf_inf.append(time.perf_counter() - t0)
-        tagger.close()
-    crf_train_s, crf_append_s, crf_inf_s = (float(np.median(v)) for v in (crf_train, crf_append, crf_inf))
-    acc_crf = float(np.mean(np.array([[int(v) for v in seq] for seq in crf_pred]) == y_te))
-    print(f"crfsuite: train {crf_train_s:.3f} s ({n_iter_crf} iterations), append {crf_append_s:.3f} s, "
-          f"dict conversion (train+test) {convert_s:.3f} s, objective {crf_obj:.4f}, "
-          f"test accuracy {acc_crf:.4f}, inference {crf_inf_s:.4f} s")
-
+    data = (X_tr, y_tr, X_te, y_te)
+    ours, anchor = crf_jax_stage(cfg, data), crfsuite_stage(cfg, data)
     result = {
-        "ratio_train_vs_crfsuite": crf_train_s / jax_train_s,
-        "ratio_train_vs_crfsuite_incl_append": (crf_train_s + crf_append_s) / jax_train_s,
-        "ratio_inference_vs_crfsuite": crf_inf_s / jax_inf_s,
-        "accuracy_crf_jax": acc_jax,
-        "accuracy_crfsuite": acc_crf,
-        "objective_crf_jax": jax_obj,
-        "objective_crfsuite": crf_obj,
-        "train_s_crf_jax": jax_train_s,
-        "train_first_call_s_crf_jax": first_s,
-        "compile_s_crf_jax_approx": first_s - jax_train_s,
-        "train_s_crfsuite": crf_train_s,
-        "append_s_crfsuite": crf_append_s,
-        "dict_conversion_s_crfsuite": convert_s,
-        "inference_s_crf_jax": jax_inf_s,
-        "inference_s_crfsuite": crf_inf_s,
-        "inference_seq_per_s_crf_jax": cfg.n_test / jax_inf_s,
-        "inference_seq_per_s_crfsuite": cfg.n_test / crf_inf_s,
-        "iterations_crf_jax": n_iter_jax,
-        "iterations_crfsuite": n_iter_crf,
+        "ratio_train_vs_crfsuite": anchor["train_s_crfsuite"] / ours["train_s_crf_jax"],
+        "ratio_train_vs_crfsuite_incl_append": (anchor["train_s_crfsuite"] + anchor["append_s_crfsuite"])
+        / ours["train_s_crf_jax"],
+        "ratio_inference_vs_crfsuite": anchor["inference_s_crfsuite"] / ours["inference_s_crf_jax"],
+        **ours, **anchor,
+        "inference_seq_per_s_crf_jax": cfg.n_test / ours["inference_s_crf_jax"],
+        "inference_seq_per_s_crfsuite": cfg.n_test / anchor["inference_s_crfsuite"],
         "device": str(jax.devices()[0]),
         "config": dataclasses.asdict(cfg),
     }
-    run.write_json("bench.json", result)
+    run.write(result, filename="bench.json", flat=False)
     for key in ("ratio_train_vs_crfsuite", "ratio_train_vs_crfsuite_incl_append", "ratio_inference_vs_crfsuite",
                 "accuracy_crf_jax", "accuracy_crfsuite"):
         print(f"{key}: {result[key]:.4f}")

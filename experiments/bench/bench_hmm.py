@@ -24,16 +24,20 @@ float32 everywhere except hmmlearn, which is float64 only: its ratios use our fl
 from __future__ import annotations
 
 import dataclasses
-import statistics
 import time
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+import phmm_jax as P
+from experiments.bench.timing import Timing, time_call
 from experiments.config import markdown_table, parse_config
 from experiments.data.reaching import movements_at, raster_targets
 from lfd_common import enable_compilation_cache
+from phmm_jax.api import batch_log_likelihood, batch_posteriors
+from phmm_jax.em import em_step
+from phmm_jax.emissions import gaussian_log_density
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,19 +62,6 @@ PRESETS = {
 }
 
 
-def timed(fn, repeats: int):
-    """(median seconds, first-call seconds) of fn() with jax.block_until_ready."""
-    start = time.perf_counter()
-    jax.block_until_ready(fn())
-    first = time.perf_counter() - start
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        jax.block_until_ready(fn())
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), first
-
-
 def make_data(cfg: BenchConfig):
     rng = np.random.default_rng(cfg.seed)
     targets = raster_targets(5, 7).reshape(-1, 3)
@@ -79,38 +70,36 @@ def make_data(cfg: BenchConfig):
     return X[rng.permutation(len(X))[: cfg.batch]]
 
 
-def main(argv=None) -> dict:
-    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_hmm", argv=argv)
-    enable_compilation_cache()
-    import phmm_jax as P
-    from phmm_jax.api import batch_log_likelihood, batch_posteriors
-    from phmm_jax.em import em_step
+class Table:
+    """Rows (what, seq/s, ms per call, compile + first call s) of the throughput table, printed as they come."""
 
-    X_np = make_data(cfg)
-    hmm_cfg = P.HMMConfig(n_states=cfg.n_states, min_duration=cfg.min_duration, max_duration=cfg.max_duration,
-                          n_iter=10)
-    fit_start = time.perf_counter()
-    hmm = P.fit_hmm(X_np[: cfg.em_sequences], config=hmm_cfg)
-    print(f"model fitted by EM in {time.perf_counter() - fit_start:.1f} s (incl. compile)")
-    results: dict = {"batch": cfg.batch, "n_frames": cfg.n_frames, "n_pseudo_states": cfg.n_states * cfg.max_duration,
-                     "dim": X_np.shape[-1], "device": str(jax.devices()[0])}
-    rows = []
+    def __init__(self):
+        self.rows = []
 
-    def record(name, seconds, first, n_seq):
-        rate = n_seq / seconds
-        rows.append((name, rate, seconds * 1e3, first - seconds))
-        print(f"{name:48s} {rate:12.0f} seq/s   {seconds * 1e3:9.2f} ms   compile+first ~{first - seconds:6.2f} s")
+    def record(self, name: str, t: Timing, n_seq: int) -> float:
+        rate = n_seq / t.median_s
+        self.rows.append((name, rate, t.median_s * 1e3, t.first_s - t.median_s))
+        print(f"{name:48s} {rate:12.0f} seq/s   {t.median_s * 1e3:9.2f} ms   "
+              f"compile+first ~{t.first_s - t.median_s:6.2f} s")
         return rate
 
-    X = jnp.asarray(X_np, jnp.float32)
-    lengths = jnp.full(cfg.batch, cfg.n_frames, jnp.int32)
-    ours_ll = record("ours log_likelihood (f32)", *timed(lambda: batch_log_likelihood(hmm, X, lengths), cfg.repeats), cfg.batch)
-    ours_post = record("ours posteriors (f32)", *timed(lambda: batch_posteriors(hmm, X, lengths), cfg.repeats), cfg.batch)
 
-    # dynamax on the expanded model, emissions by the same code (per state, gathered to pseudo-states).
+FIT_OPTIONS = P.FitOptions(max_iter=10)  # EM of the benchmarked HMM and PHMMs
+
+
+def fit_model(cfg: BenchConfig, X_np):
+    """The benchmarked HMM: fitted by our EM on `em_sequences` simulated reaching movements."""
+    hmm_cfg = P.HMMConfig(n_states=cfg.n_states, min_duration=cfg.min_duration, max_duration=cfg.max_duration)
+    fit_start = time.perf_counter()
+    hmm = P.fit_hmm(X_np[: cfg.em_sequences], config=hmm_cfg, options=FIT_OPTIONS)
+    print(f"model fitted by EM in {time.perf_counter() - fit_start:.1f} s (incl. compile)")
+    return hmm, hmm_cfg
+
+
+def dynamax_anchors(hmm):
+    """dynamax on the expanded model: (filter, smoother) fed our emission code (per state, gathered to
+    pseudo-states), and (log-likelihood, posterior) of `GaussianHMM`, all jitted over (B, T, D)."""
     from dynamax.hidden_markov_model import GaussianHMM, hmm_backward_filter, hmm_filter
-
-    from phmm_jax.emissions import gaussian_log_density
 
     dense = P.expand_to_dense(hmm)
     init = jnp.asarray(np.exp(dense.log_initial), jnp.float32)
@@ -139,48 +128,74 @@ def main(argv=None) -> dict:
         pseudo, loglik = jax.vmap(smooth)(log_b)
         return pseudo, pseudo.reshape(*pseudo.shape[:2], hmm.n_states, -1).sum(-1), loglik
 
-    dyn_ll = record("dynamax hmm_filter (f32)", *timed(lambda: dyn_filter(X), cfg.repeats), cfg.batch)
-    dyn_post = record("dynamax hmm_smoother (f32)", *timed(lambda: dyn_smoother(X), cfg.repeats), cfg.batch)
-
-    gauss = GaussianHMM(num_states=len(dense.means), emission_dim=X.shape[-1])
+    gauss = GaussianHMM(num_states=len(dense.means), emission_dim=hmm.means.shape[-1])
     params, _ = gauss.initialize(initial_probs=init, transition_matrix=trans,
                                  emission_means=jnp.asarray(dense.means, jnp.float32),
                                  emission_covariances=jnp.asarray(dense.covariances, jnp.float32))
     gauss_ll_fn = jax.jit(jax.vmap(lambda x: gauss.marginal_log_prob(params, x)))
     gauss_post_fn = jax.jit(jax.vmap(lambda x: gauss.smoother(params, x).smoothed_probs))
-    gauss_ll = record("dynamax GaussianHMM.marginal_log_prob (f32)", *timed(lambda: gauss_ll_fn(X), cfg.repeats), cfg.batch)
-    gauss_post = record("dynamax GaussianHMM.smoother (f32)", *timed(lambda: gauss_post_fn(X), cfg.repeats), cfg.batch)
+    return dyn_filter, dyn_smoother, gauss_ll_fn, gauss_post_fn
 
+
+def throughput_stage(cfg: BenchConfig, hmm, X_np, table: Table) -> dict:
+    """Log-likelihood and posterior throughput (float32): ours, dynamax fed our emissions, GaussianHMM."""
+    X = jnp.asarray(X_np, jnp.float32)
+    lengths = jnp.full(cfg.batch, cfg.n_frames, jnp.int32)
+    r = cfg.repeats
+    out = {
+        "loglik_seq_per_s": table.record("ours log_likelihood (f32)",
+                                         time_call(lambda: batch_log_likelihood(hmm, X, lengths), r), cfg.batch),
+        "posterior_seq_per_s": table.record("ours posteriors (f32)",
+                                            time_call(lambda: batch_posteriors(hmm, X, lengths), r), cfg.batch),
+    }
+    dyn_filter, dyn_smoother, gauss_ll_fn, gauss_post_fn = dynamax_anchors(hmm)
+    out["dynamax_filter_seq_per_s"] = table.record("dynamax hmm_filter (f32)", time_call(lambda: dyn_filter(X), r),
+                                                   cfg.batch)
+    out["dynamax_smoother_seq_per_s"] = table.record("dynamax hmm_smoother (f32)",
+                                                     time_call(lambda: dyn_smoother(X), r), cfg.batch)
+    out["dynamax_gaussianhmm_loglik_seq_per_s"] = table.record(
+        "dynamax GaussianHMM.marginal_log_prob (f32)", time_call(lambda: gauss_ll_fn(X), r), cfg.batch)
+    out["dynamax_gaussianhmm_posterior_seq_per_s"] = table.record(
+        "dynamax GaussianHMM.smoother (f32)", time_call(lambda: gauss_post_fn(X), r), cfg.batch)
     # Agreement of the values (the anchors lack the end constraint: compare ours without it too).
     ours_values = np.asarray(batch_log_likelihood(hmm, X, lengths))
-    results["max_abs_diff_loglik_vs_dynamax_gaussianhmm_no_end"] = float(np.max(np.abs(
+    out["max_abs_diff_loglik_vs_dynamax_gaussianhmm_no_end"] = float(np.max(np.abs(
         np.asarray(gauss_ll_fn(X)) - np.asarray(dyn_filter(X)))))
-    results["ours_mean_loglik"] = float(ours_values.mean())
+    out["ours_mean_loglik"] = float(ours_values.mean())
+    return out
 
-    # EM iteration on em_sequences (E step + M step, float32).
-    X_em = X[: cfg.em_sequences]
-    lengths_em, weights_em = lengths[: cfg.em_sequences], jnp.ones(cfg.em_sequences, jnp.float32)
-    em_s, em_first = timed(lambda: em_step(hmm, X_em, lengths_em, weights_em), cfg.repeats)
-    print(f"{'ours EM iteration on ' + str(cfg.em_sequences) + ' sequences':48s} {em_s * 1e3:9.2f} ms")
 
-    # Recognition: 2 PHMMs (reaching, pointing) on a 2x2 grid, batched phi search per sequence.
+def em_recognition_stage(cfg: BenchConfig, hmm, hmm_cfg, X_np) -> dict:
+    """One EM iteration on `em_sequences` (E + M step, float32); recognition by 2 PHMMs of a 2x2 grid."""
+    X_em = jnp.asarray(X_np[: cfg.em_sequences], jnp.float32)
+    lengths_em = jnp.full(cfg.em_sequences, cfg.n_frames, jnp.int32)
+    weights_em = jnp.ones(cfg.em_sequences, jnp.float32)
+    em = time_call(lambda: em_step(hmm, X_em, lengths_em, weights_em, FIT_OPTIONS.reg_covar,
+                                   FIT_OPTIONS.duration_pseudocount), cfg.repeats)
+    print(f"{'ours EM iteration on ' + str(cfg.em_sequences) + ' sequences':48s} {em.median_s * 1e3:9.2f} ms")
+
     rng = np.random.default_rng(cfg.seed + 1)
     corners = raster_targets(2, 2).reshape(-1, 3)
-    phmms = [P.fit_phmm(list(movements_at(rng, corners, 6, kind, cfg.n_frames)), (2, 2), hmm_cfg)
+    phmms = [P.fit_phmm(list(movements_at(rng, corners, 6, kind, cfg.n_frames)), (2, 2), hmm_cfg, options=FIT_OPTIONS)
              for kind in ("reaching", "pointing")]
     test_targets = raster_targets(5, 7).reshape(-1, 3)[rng.integers(0, 35, cfg.recognition_batch)]
     X_rec = np.stack([movements_at(rng, t[None], 1, "pointing", cfg.n_frames)[0, 0] for t in test_targets])
-    rec_s, rec_first = timed(lambda: P.recognize(phmms, X_rec).phi, max(1, cfg.repeats // 2))
-    recognition_ms = rec_s * 1e3 / cfg.recognition_batch
-    accuracy = float(np.mean(P.recognize(phmms, X_rec).label == 1))
-    print(f"{'ours recognition (2 classes, phi search)':48s} {recognition_ms:9.2f} ms/seq (batch {cfg.recognition_batch}, "
-          f"accuracy {accuracy:.2f})")
+    rec = time_call(lambda: P.recognize(phmms, X_rec).phi, max(1, cfg.repeats // 2))
+    recognition_ms = rec.median_s * 1e3 / cfg.recognition_batch
+    accuracy = float(np.mean(np.asarray(P.recognize(phmms, X_rec).label) == 1))
+    print(f"{'ours recognition (2 classes, phi search)':48s} {recognition_ms:9.2f} ms/seq (batch "
+          f"{cfg.recognition_batch}, accuracy {accuracy:.2f})")
+    return {"em_iteration_s": em.median_s, "em_iteration_compile_s": em.first_s - em.median_s,
+            "recognition_ms_per_seq": recognition_ms, "recognition_accuracy_pointing": accuracy}
 
-    # hmmlearn (float64) against ours in float64.
+
+def hmmlearn_stage(cfg: BenchConfig, hmm, X_np, table: Table) -> dict:
+    """hmmlearn (float64 only) on `hmmlearn_batch` sequences, and ours in float64 on the whole batch."""
     from hmmlearn.hmm import GaussianHMM as HmmlearnGaussian
 
+    dense = P.expand_to_dense(hmm)
     ref = HmmlearnGaussian(n_components=len(dense.means), covariance_type="full", implementation="log")
-    ref.n_features = X.shape[-1]
+    ref.n_features = X_np.shape[-1]
     ref.startprob_ = np.exp(dense.log_initial)
     transmat = np.exp(dense.log_transition)
     row = transmat.sum(axis=1, keepdims=True)
@@ -190,52 +205,63 @@ def main(argv=None) -> dict:
     nb = cfg.hmmlearn_batch
     flat = X_np[:nb].reshape(-1, X_np.shape[-1])
     seq_lengths = [cfg.n_frames] * nb
-    hl_ll = record("hmmlearn score (f64)", *timed(lambda: ref.score(flat, seq_lengths), max(1, cfg.repeats // 3)), nb)
-    hl_post = record("hmmlearn predict_proba (f64)", *timed(lambda: ref.predict_proba(flat, seq_lengths),
-                                                              max(1, cfg.repeats // 3)), nb)
+    r = max(1, cfg.repeats // 3)
+    out = {"hmmlearn_score_seq_per_s": table.record("hmmlearn score (f64)",
+                                                    time_call(lambda: ref.score(flat, seq_lengths), r), nb),
+           "hmmlearn_posterior_seq_per_s": table.record(
+               "hmmlearn predict_proba (f64)", time_call(lambda: ref.predict_proba(flat, seq_lengths), r), nb)}
+    lengths = jnp.full(cfg.batch, cfg.n_frames, jnp.int32)
     jax.config.update("jax_enable_x64", True)
     hmm64 = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float64), hmm)
     X64 = jnp.asarray(X_np, jnp.float64)
-    ours_ll64 = record("ours log_likelihood (f64)", *timed(lambda: batch_log_likelihood(hmm64, X64, lengths), cfg.repeats), cfg.batch)
-    ours_post64 = record("ours posteriors (f64)", *timed(lambda: batch_posteriors(hmm64, X64, lengths), cfg.repeats), cfg.batch)
+    out["loglik_f64_seq_per_s"] = table.record(
+        "ours log_likelihood (f64)", time_call(lambda: batch_log_likelihood(hmm64, X64, lengths), cfg.repeats),
+        cfg.batch)
+    out["posterior_f64_seq_per_s"] = table.record(
+        "ours posteriors (f64)", time_call(lambda: batch_posteriors(hmm64, X64, lengths), cfg.repeats), cfg.batch)
     jax.config.update("jax_enable_x64", False)
+    return out
 
-    results.update({
-        "loglik_seq_per_s": ours_ll,
-        "posterior_seq_per_s": ours_post,
-        "loglik_f64_seq_per_s": ours_ll64,
-        "posterior_f64_seq_per_s": ours_post64,
-        "dynamax_filter_seq_per_s": dyn_ll,
-        "dynamax_smoother_seq_per_s": dyn_post,
-        "dynamax_gaussianhmm_loglik_seq_per_s": gauss_ll,
-        "dynamax_gaussianhmm_posterior_seq_per_s": gauss_post,
-        "hmmlearn_score_seq_per_s": hl_ll,
-        "hmmlearn_posterior_seq_per_s": hl_post,
-        "ratio_loglik_vs_dynamax": ours_ll / dyn_ll,
-        "ratio_posterior_vs_dynamax": ours_post / dyn_post,
-        "ratio_loglik_vs_dynamax_gaussianhmm": ours_ll / gauss_ll,
-        "ratio_posterior_vs_dynamax_gaussianhmm": ours_post / gauss_post,
-        "ratio_loglik_vs_hmmlearn": ours_ll64 / hl_ll,
-        "ratio_posterior_vs_hmmlearn": ours_post64 / hl_post,
-        "em_iteration_s": em_s,
-        "em_iteration_compile_s": em_first - em_s,
-        "recognition_ms_per_seq": recognition_ms,
-        "recognition_accuracy_pointing": accuracy,
-    })
+
+RATIOS = {  # ratio key -> (ours, anchor)
+    "ratio_loglik_vs_dynamax": ("loglik_seq_per_s", "dynamax_filter_seq_per_s"),
+    "ratio_posterior_vs_dynamax": ("posterior_seq_per_s", "dynamax_smoother_seq_per_s"),
+    "ratio_loglik_vs_dynamax_gaussianhmm": ("loglik_seq_per_s", "dynamax_gaussianhmm_loglik_seq_per_s"),
+    "ratio_posterior_vs_dynamax_gaussianhmm": ("posterior_seq_per_s", "dynamax_gaussianhmm_posterior_seq_per_s"),
+    "ratio_loglik_vs_hmmlearn": ("loglik_f64_seq_per_s", "hmmlearn_score_seq_per_s"),
+    "ratio_posterior_vs_hmmlearn": ("posterior_f64_seq_per_s", "hmmlearn_posterior_seq_per_s"),
+}
+
+
+def report(cfg: BenchConfig, results: dict, table: Table) -> str:
     ratios = {k: v for k, v in results.items() if k.startswith("ratio_")}
-    for key, value in ratios.items():
-        print(f"{key:45s} {value:8.2f}x")
-    run.write_json("bench.json", results)
-    run.write_report("\n".join([
+    return "\n".join([
         "# HMM benchmark: phmm_jax vs dynamax vs hmmlearn", "",
         f"B = {cfg.batch}, T = {cfg.n_frames}, N = {cfg.n_states} x durations {cfg.min_duration}-{cfg.max_duration} "
         f"({results['n_pseudo_states']} pseudo-states), D = {results['dim']}, full covariance, on {results['device']}.",
-        "hmmlearn scored {} sequences (float64).".format(nb), "",
-        markdown_table(["what", "seq/s", "ms per call", "compile + first call (s)"], rows), "",
+        "hmmlearn scored {} sequences (float64).".format(cfg.hmmlearn_batch), "",
+        markdown_table(["what", "seq/s", "ms per call", "compile + first call (s)"], table.rows), "",
         markdown_table(["ratio", "value"], list(ratios.items())), "",
-        f"EM iteration on {cfg.em_sequences} sequences: {em_s:.3f} s. Recognition: {recognition_ms:.2f} ms per "
-        f"sequence (batch {cfg.recognition_batch}, 2 PHMMs of a 2x2 grid).",
-    ]))
+        f"EM iteration on {cfg.em_sequences} sequences: {results['em_iteration_s']:.3f} s. Recognition: "
+        f"{results['recognition_ms_per_seq']:.2f} ms per sequence (batch {cfg.recognition_batch}, 2 PHMMs of a "
+        "2x2 grid).",
+    ])
+
+
+def main(argv=None) -> dict:
+    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_hmm", argv=argv)
+    enable_compilation_cache()
+    X_np = make_data(cfg)
+    hmm, hmm_cfg = fit_model(cfg, X_np)
+    table = Table()
+    results = {"batch": cfg.batch, "n_frames": cfg.n_frames, "n_pseudo_states": cfg.n_states * cfg.max_duration,
+               "dim": X_np.shape[-1], "device": str(jax.devices()[0]),
+               **throughput_stage(cfg, hmm, X_np, table), **em_recognition_stage(cfg, hmm, hmm_cfg, X_np),
+               **hmmlearn_stage(cfg, hmm, X_np, table)}
+    results.update({k: results[a] / results[b] for k, (a, b) in RATIOS.items()})
+    for key in RATIOS:
+        print(f"{key:45s} {results[key]:8.2f}x")
+    run.write(results, report(cfg, results, table), filename="bench.json", flat=False)
     print(f"wrote {run.path / 'bench.json'}")
     return results
 

@@ -25,10 +25,11 @@ from __future__ import annotations
 import dataclasses
 import multiprocessing as mp
 import os
-import time
 
 import numpy as np
 
+from experiments.bench.timing import time_call
+from experiments.config import markdown_table, parse_config
 from lfd_common import enable_compilation_cache
 
 
@@ -78,59 +79,53 @@ def _pool_map(pool, fn, imgs, n_bins, n_proc):
     return np.concatenate(pool.starmap(fn, [(c, n_bins) for c in chunks]))
 
 
-def _median_time(fn, repeats):
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    return float(np.median(ts))
-
-
-def main(argv=None):
-    enable_compilation_cache()
-    from experiments.config import markdown_table, parse_config
-    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_hog", argv=argv)
-
+def time_size(cfg: BenchConfig, imgs, hcfg, skfn, pool, n_proc: int) -> dict:
+    """One configuration at one image size: ours from numpy and from device input, scikit-image as a
+    loop and over the process pool."""
     import jax
+
+    import hog_jax
+
+    ours = time_call(lambda: hog_jax.hog(imgs, hcfg), cfg.repeats)
+    dev = jax.device_put(imgs)
+    on_device = time_call(lambda: hog_jax.hog(dev, hcfg), cfg.repeats)
+    sk = time_call(lambda: skfn(imgs, cfg.n_bins), cfg.repeats, warmup=lambda: skfn(imgs[:8], cfg.n_bins),
+                   block=False)
+    t_pool = float("nan")
+    if pool is not None:
+        t_pool = time_call(lambda: _pool_map(pool, skfn, imgs, cfg.n_bins, n_proc), cfg.repeats, block=False,
+                           warmup=lambda: _pool_map(pool, skfn, imgs[: 8 * n_proc], cfg.n_bins, n_proc)).median_s
+    B, t_ours = cfg.n_images, ours.median_s
+    return {
+        "ours_images_per_s": B / t_ours, "ours_device_input_images_per_s": B / on_device.median_s,
+        "skimage_images_per_s": B / sk.median_s, "skimage_pool_images_per_s": B / t_pool,
+        "ratio": sk.median_s / t_ours, "ratio_pool": t_pool / t_ours, "compile_s": ours.compile_s,
+    }
+
+
+ROW_KEYS = ("ours_images_per_s", "ours_device_input_images_per_s", "skimage_images_per_s",
+            "skimage_pool_images_per_s", "ratio", "ratio_pool", "compile_s")
+
+
+def throughput_stage(cfg: BenchConfig, n_proc: int) -> tuple[dict, list]:
+    """Both configurations at every image size, scikit-image's pool kept warm throughout: (results by
+    "<config>_<S>", table rows)."""
     import hog_jax
     from experiments.data.hog_features import hand_images
 
-    n_proc = os.cpu_count() or 1
-    pool = mp.get_context("spawn").Pool(n_proc) if cfg.pool else None
-    results, rows = {}, []
     configs = {
         "cells": (hog_jax.HOGConfig(n_bins=cfg.n_bins, n_levels=4, layout="grid", normalize="cell"), _sk_cells),
         "pyramid": (hog_jax.HOGConfig(n_bins=cfg.n_bins, n_levels=3), _sk_pyramid_calls),
     }
+    results, rows = {}, []
+    pool = mp.get_context("spawn").Pool(n_proc) if cfg.pool else None
     try:
         for S in cfg.sizes:
             imgs, _, _ = hand_images(cfg.n_images, seed=cfg.seed, size=S)
             imgs = np.ascontiguousarray(imgs, np.float32)
             for name, (hcfg, skfn) in configs.items():
-                t0 = time.perf_counter()
-                jax.block_until_ready(hog_jax.hog(imgs, hcfg))
-                first = time.perf_counter() - t0
-                t_ours = _median_time(lambda: jax.block_until_ready(hog_jax.hog(imgs, hcfg)), cfg.repeats)
-                dev = jax.device_put(imgs)
-                jax.block_until_ready(hog_jax.hog(dev, hcfg))
-                t_dev = _median_time(lambda: jax.block_until_ready(hog_jax.hog(dev, hcfg)), cfg.repeats)
-                skfn(imgs[:8], cfg.n_bins)  # warm-up
-                t_sk = _median_time(lambda: skfn(imgs, cfg.n_bins), cfg.repeats)
-                t_pool = float("nan")
-                if pool is not None:
-                    _pool_map(pool, skfn, imgs[: 8 * n_proc], cfg.n_bins, n_proc)  # warm-up
-                    t_pool = _median_time(lambda: _pool_map(pool, skfn, imgs, cfg.n_bins, n_proc), cfg.repeats)
-                B = cfg.n_images
-                r = {
-                    "ours_images_per_s": B / t_ours, "ours_device_input_images_per_s": B / t_dev,
-                    "skimage_images_per_s": B / t_sk, "skimage_pool_images_per_s": B / t_pool,
-                    "ratio": t_sk / t_ours, "ratio_pool": t_pool / t_ours, "compile_s": max(first - t_ours, 0.0),
-                }
-                results[f"{name}_{S}"] = r
-                rows.append([name, S, r["ours_images_per_s"], r["ours_device_input_images_per_s"],
-                             r["skimage_images_per_s"], r["skimage_pool_images_per_s"], r["ratio"], r["ratio_pool"],
-                             r["compile_s"]])
+                r = results[f"{name}_{S}"] = time_size(cfg, imgs, hcfg, skfn, pool, n_proc)
+                rows.append([name, S, *(r[k] for k in ROW_KEYS)])
                 print(f"{name:8s} S={S:4d}: ours {r['ours_images_per_s']:9.0f} img/s "
                       f"(device input {r['ours_device_input_images_per_s']:9.0f}), skimage {r['skimage_images_per_s']:7.0f} "
                       f"(pool of {n_proc}: {r['skimage_pool_images_per_s']:7.0f}); ratio {r['ratio']:.1f}x "
@@ -139,16 +134,25 @@ def main(argv=None):
         if pool is not None:
             pool.close()
             pool.join()
+    return results, rows
+
+
+def main(argv=None):
+    enable_compilation_cache()
+    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_hog", argv=argv)
+    import jax
+
+    n_proc = os.cpu_count() or 1
+    results, rows = throughput_stage(cfg, n_proc)
     out = {"n_images": cfg.n_images, "n_bins": cfg.n_bins, "cpu_count": n_proc, "device": str(jax.devices()[0]),
            "results": results}
     for S in cfg.sizes:
         out[f"ratio_vs_skimage_{S}"] = results[f"cells_{S}"]["ratio"]
         out[f"ratio_vs_skimage_pool_{S}"] = results[f"cells_{S}"]["ratio_pool"]
         out[f"ratio_pyramid_vs_skimage_{S}"] = results[f"pyramid_{S}"]["ratio"]
-    run.write_json("bench.json", out)
     table = markdown_table(["config", "S", "ours img/s", "ours (device input)", "skimage img/s", "skimage pool",
                             "ratio", "ratio vs pool", "compile s"], rows)
-    run.write_report("# HOG benchmark\n\n" + table)
+    run.write(out, "# HOG benchmark\n\n" + table, filename="bench.json", flat=False)
     print("\n".join(f"{k} = {v:.2f}" for k, v in out.items() if k.startswith("ratio")))
     print(f"wrote {run.file('bench.json')}")
 

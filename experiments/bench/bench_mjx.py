@@ -25,11 +25,15 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import time
 
 import numpy as np
 
+import sim
+from experiments.bench.timing import time_call
+from experiments.config import markdown_table, parse_config
 from lfd_common import enable_compilation_cache
+from sim.grasp_rollout import SUBSTEPS, rollout_grasps, warp_status
+from sim.grasp_strategy import n_control_steps
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,15 +72,6 @@ def bench_trials(hand: str, n: int, seed: int):
     offsets = np.where((cond >= 1) & (cond <= 6), 1.0, 0.0)[:, None] * 0.05 * np.stack([np.cos(ang), np.sin(ang)], -1)
     tilts = np.where(cond == 7, 15.0, np.where(cond == 8, 30.0, 0.0))
     return plan_trials(hand, grasps, offsets, tilts, np.ones(n, bool), seed * 100_000 + k)
-
-
-def _median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def serial_rollout(hand: str, params, object_start) -> None:
@@ -122,73 +117,61 @@ def controller_only(hand: str, params) -> float:
     model, layout = _scene(hand)
     control = _jitted_controller(hand)
     sensors = np.zeros((len(params.goal), model.nsensordata), np.float32)
-    state = initial_state(params, layout.n_links)
-    jax.block_until_ready(control(state, jnp.asarray(sensors), params))
-    t0 = time.perf_counter()
-    for _ in range(n_control_steps()):
-        state, ctrl = control(state, jnp.asarray(sensors), params)
-        np.asarray(ctrl)
-    return time.perf_counter() - t0
+    state0 = initial_state(params, layout.n_links)
+
+    def steps():
+        state = state0
+        for _ in range(n_control_steps()):
+            state, ctrl = control(state, jnp.asarray(sensors), params)
+            np.asarray(ctrl)
+
+    warmup = lambda: jax.block_until_ready(control(state0, jnp.asarray(sensors), params))  # noqa: E731
+    return time_call(steps, 1, warmup=warmup, block=False).median_s
 
 
-def main(argv=None):
-    enable_compilation_cache()
-    from experiments.config import markdown_table, parse_config
-    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_mjx", argv=argv)
-
-    import sim  # noqa: F401
-    import jax
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from sim.grasp_rollout import SUBSTEPS, rollout_grasps, warp_status
-    from sim.grasp_strategy import n_control_steps
-
-    steps_per_trial = n_control_steps() * SUBSTEPS
-    backends = ["native", "mjx-jax"] + ([] if warp_status() else ["mjx-warp"])
-    gpu = [d for d in jax.devices() if d.platform == "gpu"]
-    device = (f"{os.cpu_count()} CPU cores" + (f", {gpu[0].device_kind}" if gpu else "")
-              + f", jax {jax.__version__}")
-    print(f"device: {device}; backends: serial, {', '.join(backends)}; mjx-warp: {warp_status() or 'present'}")
-
-    params, start = bench_trials(cfg.hand, cfg.n_trials, cfg.seed)
-    results: dict[str, dict] = {}
-
+def backends_stage(cfg: BenchConfig, backends: list[str], steps_per_trial: int) -> dict[str, dict]:
+    """Per backend (serial first): trials, run seconds (median), compile seconds, trials/s, steps/s."""
     sp, ss = bench_trials(cfg.hand, cfg.serial_trials, cfg.seed)
-    serial_rollout(cfg.hand, sp, ss)  # warm-up (controller compile)
-    t = _median_time(lambda: serial_rollout(cfg.hand, sp, ss), cfg.repeats)
-    results["serial"] = {"trials": cfg.serial_trials, "run_s": t, "compile_s": 0.0}
-
+    t = time_call(lambda: serial_rollout(cfg.hand, sp, ss), cfg.repeats, block=False)  # warm-up: controller compile
+    results = {"serial": {"trials": cfg.serial_trials, "run_s": t.median_s, "compile_s": 0.0}}
+    params, start = bench_trials(cfg.hand, cfg.n_trials, cfg.seed)
     for backend in backends:
         n = cfg.n_trials if backend != "mjx-jax" else cfg.mjx_trials
         if n == 0:
             continue
         p, s = (params, start) if n == cfg.n_trials else bench_trials(cfg.hand, n, cfg.seed)
-        t0 = time.perf_counter()
-        rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread)
-        first = time.perf_counter() - t0
-        t = _median_time(lambda: rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread), cfg.repeats)
-        results[backend] = {"trials": n, "run_s": t, "compile_s": max(first - t, 0.0)}
+        t = time_call(lambda: rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread), cfg.repeats,
+                      block=False)
+        results[backend] = {"trials": n, "run_s": t.median_s, "compile_s": t.compile_s}
     results["native"]["controller_s"] = controller_only(cfg.hand, params)
     for r in results.values():
         r["trials_per_s"] = r["trials"] / r["run_s"]
         r["steps_per_s"] = r["trials"] * steps_per_trial / r["run_s"]
+    return results
 
+
+def scaling_stage(cfg: BenchConfig, backends: list[str], results: dict) -> dict[str, dict]:
+    """Trials/s against batch size per batched backend (MJX-JAX and serial: their one batch)."""
     scaling = {}
     for backend in [b for b in backends if b != "mjx-jax"]:
         scaling[backend] = {}
         for n in cfg.sizes:
             p, s = bench_trials(cfg.hand, n, cfg.seed)
-            rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread)
-            t = _median_time(lambda: rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread),
-                             max(1, cfg.repeats if n <= 1024 else 1))
-            scaling[backend][n] = n / t
-            print(f"  {backend} B={n}: {n / t:,.0f} trials/s")
+            t = time_call(lambda: rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread),
+                          max(1, cfg.repeats if n <= 1024 else 1), block=False)
+            scaling[backend][n] = n / t.median_s
+            print(f"  {backend} B={n}: {n / t.median_s:,.0f} trials/s")
     if "mjx-jax" in results:
         scaling["mjx-jax"] = {results["mjx-jax"]["trials"]: results["mjx-jax"]["trials_per_s"]}
     scaling["serial"] = {cfg.serial_trials: results["serial"]["trials_per_s"]}
+    return scaling
+
+
+def plot_scaling(cfg: BenchConfig, scaling: dict, steps_per_trial: int, device: str):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4))
     for name, values in scaling.items():
@@ -200,8 +183,10 @@ def main(argv=None):
     ax.set_ylabel("trials / s")
     ax.set_title(f"grasp trials ({cfg.hand}, {steps_per_trial} steps each), {device}", fontsize=8)
     ax.legend()
-    run.save_figure(fig, "scaling.png")
+    return fig
 
+
+def summary(cfg: BenchConfig, results: dict, scaling: dict, steps_per_trial: int, device: str) -> dict:
     out = {
         "device": device,
         "hand": cfg.hand,
@@ -216,15 +201,38 @@ def main(argv=None):
     }
     if "mjx-warp" in results:
         out["ratio_mjx_warp_vs_native"] = results["mjx-warp"]["trials_per_s"] / results["native"]["trials_per_s"]
-    run.write_json("bench.json", out)
+    return out
+
+
+def report(results: dict, out: dict) -> tuple[str, str]:
     rows = [(k, r["trials"], r["trials_per_s"], r["steps_per_s"], r["compile_s"]) for k, r in results.items()]
     table = markdown_table(["backend", "batch", "trials/s", "steps/s", "compile (s)"], rows)
-    run.write_report("\n".join([
-        "# Grasp-trial throughput", "", f"Device: {device}. Hand: {cfg.hand}; {steps_per_trial} physics steps "
-        "per trial (horizon).", "", table, "",
+    return table, "\n".join([
+        "# Grasp-trial throughput", "", f"Device: {out['device']}. Hand: {out['hand']}; {out['steps_per_trial']} "
+        "physics steps per trial (horizon).", "", table, "",
         f"native vs serial: {out['ratio_native_vs_serial']:.2f}x. The jitted controller takes "
         f"{100 * out['native_controller_share']:.0f} % of the native run time; the rest is MuJoCo's batch step.",
-        "", "![scaling](scaling.png)"]))
+        "", "![scaling](scaling.png)"])
+
+
+def main(argv=None):
+    enable_compilation_cache()
+    cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_mjx", argv=argv)
+    sim.setup_rendering()
+    import jax
+
+    steps_per_trial = n_control_steps() * SUBSTEPS
+    backends = ["native", "mjx-jax"] + ([] if warp_status() else ["mjx-warp"])
+    gpu = [d for d in jax.devices() if d.platform == "gpu"]
+    device = (f"{os.cpu_count()} CPU cores" + (f", {gpu[0].device_kind}" if gpu else "")
+              + f", jax {jax.__version__}")
+    print(f"device: {device}; backends: serial, {', '.join(backends)}; mjx-warp: {warp_status() or 'present'}")
+    results = backends_stage(cfg, backends, steps_per_trial)
+    scaling = scaling_stage(cfg, backends, results)
+    out = summary(cfg, results, scaling, steps_per_trial, device)
+    table, text = report(results, out)
+    run.write(out, text, {"scaling.png": plot_scaling(cfg, scaling, steps_per_trial, device)}, filename="bench.json",
+              flat=False)
     print(table)
     print(f"ratio native vs serial: {out['ratio_native_vs_serial']:.2f}")
     return out

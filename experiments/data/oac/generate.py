@@ -1,0 +1,98 @@
+"""Generating (and caching) the data set, and the images of one recording."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import sys
+
+import numpy as np
+
+import sim
+from experiments.data.oac.settings import N_CLASSES, OACData, OACSettings, _VERSION, draw_persons
+from experiments.data.oac.views import _Views, masked_hog, record
+from lfd_common import cache_dir, check_int, write_npz
+
+
+def _cache_path(settings: OACSettings):
+    """Keyed by every setting, this generator's source and the hand model's source and postures, so a
+    change to the simulation never reuses stale renders."""
+    import inspect
+
+    import sim.human_grasps
+    import sim.human_hand
+
+    ours = [sys.modules[f"experiments.data.oac.{m}"] for m in ("settings", "motion", "grips", "scene", "views",
+                                                                       "generate")]
+    code = hashlib.sha1("".join(inspect.getsource(m) for m in (*ours, sim.human_hand,
+                                                               sim.human_grasps)).encode()).hexdigest()
+    key = json.dumps({"version": _VERSION, "code": code, **dataclasses.asdict(settings)}, sort_keys=True)
+    digest = hashlib.sha1(key.encode()).hexdigest()[:16]
+    return cache_dir("oac") / f"oac_{digest}.npz"
+
+
+def generate(settings: OACSettings = OACSettings(), cache: bool = True, progress=None) -> OACData:
+    """Simulate the OAC data set: every class x person x repetition (N = 3 * persons * repetitions).
+
+    Deterministic from `settings.seed`; cached under `cache_dir("oac")` keyed by every setting.
+    `progress`: optional wrapper of an iterable (e.g. `experiments.config.progress`) for a progress bar.
+    """
+    if not isinstance(settings, OACSettings):
+        raise ValueError(f"settings: expected an OACSettings, got {type(settings).__name__}")
+    sim.setup_rendering()
+    path = _cache_path(settings)
+    if cache and path.exists():
+        with np.load(path) as z:
+            return OACData(**{k: z[k] for k in OACData._fields})
+    rng = np.random.default_rng(settings.seed)
+    persons = draw_persons(rng, settings.n_persons)
+    jobs = [(c, p) for p in range(settings.n_persons) for c in range(N_CLASSES)]
+    recs, meta = [], []
+    for c, p in (progress(jobs, desc="rendering OAC recordings") if progress else jobs):
+        views = _Views(c, persons[p], settings.image_px)
+        for r in range(settings.n_repetitions):
+            sub = np.random.default_rng([settings.seed, c, p, r])
+            recs.append(record(views, c, persons[p], sub, settings))
+            meta.append((c, p, r))
+        views.close()
+    lengths = np.array([r["n"] for r in recs])
+    hand_hog = masked_hog(np.concatenate([r["hand_img"] for r in recs]), np.concatenate([r["hand_mask"] for r in recs]),
+                          settings.n_bins, settings.hand_levels)
+    obj_hog = masked_hog(np.concatenate([r["obj_img"] for r in recs]), np.concatenate([r["obj_mask"] for r in recs]),
+                         settings.n_bins, settings.object_levels)
+    starts = np.concatenate([[0], np.cumsum(lengths)])
+    n, t_max = len(recs), int(lengths.max())
+
+    def pad(rows):
+        out = np.zeros((n, t_max) + rows[0].shape[1:], np.float32)
+        for i, row in enumerate(rows):
+            out[i, : len(row)] = row
+        return out
+
+    meta = np.array(meta)
+    data = OACData(
+        action=meta[:, 0], object=meta[:, 0].copy(), person=meta[:, 1], repetition=meta[:, 2], lengths=lengths,
+        pos2d=pad([r["pos2d"] for r in recs]), pos3d=pad([r["pos3d"] for r in recs]),
+        hand_hog=pad([hand_hog[starts[i]:starts[i + 1]] for i in range(n)]),
+        object_hog=pad([obj_hog[starts[i]:starts[i + 1]] for i in range(n)]),
+        hand_true=pad([r["hand_true"] for r in recs]),
+    )
+    if cache:
+        write_npz(path, **data._asdict())
+    return data
+
+
+def recording_images(settings: OACSettings, cls: int, person: int, repetition: int) -> dict:
+    """Re-render one recording of `generate(settings)` (same seeds) and return its images and masks:
+    hand_img / hand_mask (T, P, P), obj_img / obj_mask (T, S, S), pos2d (T, 2), pos3d (T, 3), n."""
+    cls = check_int(cls, "cls", min_value=0, max_value=N_CLASSES - 1)
+    person = check_int(person, "person", min_value=0, max_value=settings.n_persons - 1)
+    repetition = check_int(repetition, "repetition", min_value=0, max_value=settings.n_repetitions - 1)
+    sim.setup_rendering()
+    persons = draw_persons(np.random.default_rng(settings.seed), settings.n_persons)
+    views = _Views(cls, persons[person], settings.image_px)
+    try:
+        return record(views, cls, persons[person], np.random.default_rng([settings.seed, cls, person, repetition]),
+                      settings)
+    finally:
+        views.close()

@@ -1,0 +1,3 @@
+from experiments.grasp_mapping.stages import main
+
+main()

@@ -1,0 +1,3 @@
+from experiments.grasp_recognition.stages import main
+
+main()

@@ -1,0 +1,135 @@
+"""Pieces of the grasp recognition protocol: database and held-out views, skin segmentation, HOG,
+kNN prediction, orientation errors, confusion, the sensitivity sweeps."""
+from __future__ import annotations
+
+import numpy as np
+
+import hog_jax
+from experiments.config import progress
+from experiments.grasp_recognition.config import Config, parse_grid
+from sim.grasp_objects import GRASP_CLASSES, GRASP_MAPPINGS
+from sim.grasp_views import render_views, view_database
+
+
+def bar(desc):
+    return lambda it, total, d=None: progress(it, desc=d or desc, total=total)
+
+
+def render_database(cfg: Config, n_azimuth: int, n_elevation: int):
+    return view_database(GRASP_CLASSES, n_azimuth, n_elevation, render_size=cfg.render_size, out_size=cfg.crop_size,
+                         progress=lambda it, total, desc: progress(it, desc=desc, total=total))
+
+
+def held_out_views(cfg: Config):
+    """Database-like views (database hand, black background) at random off-grid viewpoints, to tune LSH."""
+    rng = np.random.default_rng([cfg.seed, 5, 9])
+    per = max(1, cfg.n_held_out // len(GRASP_CLASSES))
+    parts = [render_views(g, rng.uniform(0, 360, per), rng.uniform(0, 90, per), render_size=cfg.render_size,
+                          out_size=cfg.crop_size) for g in GRASP_CLASSES]
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64):
+    """Skin segmentation of test frames (N, H, W, 3), seeded at the frame centre (where the camera aims):
+    (images (N, S, S), masks (N, S, S), found (N,)). `chunk` frames per call bounds the memory."""
+    n, h, w, _ = frames.shape
+    parts = []
+    for i in range(0, n, chunk):
+        part = frames[i: i + chunk]
+        seg = hog_jax.segment(skin, part, seed_points=np.tile([h / 2.0, w / 2.0], (len(part), 1)),
+                              out_size=crop_size)
+        parts.append((np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)))
+    return tuple(np.concatenate([p[j] for p in parts]) for j in range(3))
+
+
+def hog_features(images, masks, found, config: hog_jax.HOGConfig) -> np.ndarray:
+    """HOG (N, D) of the found crops; rows of failed segmentations stay zero (never used)."""
+    x = np.zeros((images.shape[0], hog_jax.hog_dim(config)), np.float32)
+    ok = found & (images.reshape(len(images), -1).max(1) > 0)
+    if ok.any():
+        x[ok] = np.asarray(hog_jax.hog(images[ok], config, mask=masks[ok]))
+    return x
+
+
+def knn_predict(model, x, ok, k, **lsh):
+    """Labels (N,) with -1 where segmentation failed, Euler (N, 3), quaternions (N, 4), neighbours."""
+    labels = np.full(len(x), -1, np.int32)
+    euler = np.full((len(x), 3), np.nan, np.float32)
+    quat = np.full((len(x), 4), np.nan, np.float32)
+    idx = np.full((len(x), k), -1, np.int32)
+    dist = np.full((len(x), k), np.inf, np.float32)
+    if ok.any():
+        p = hog_jax.predict(model, x[ok], k=k, **lsh)
+        labels[ok], euler[ok], quat[ok] = np.asarray(p.label), np.asarray(p.euler), np.asarray(p.quat)
+        idx[ok], dist[ok] = np.asarray(p.indices), np.asarray(p.distances)
+    return labels, euler, quat, idx, dist
+
+
+def orientation_errors_deg(pred_euler, true_euler, pred_quat, true_quat) -> tuple[np.ndarray, np.ndarray]:
+    """Absolute Euler-angle errors (N, 3) (azimuth and roll wrapped to [0, 180]) and the geodesic angle
+    between the rotations (N,), in degrees."""
+    d = np.degrees(np.asarray(pred_euler, float) - np.asarray(true_euler, float))
+    d = np.abs((d + 180.0) % 360.0 - 180.0)
+    dot = np.abs(np.sum(np.asarray(pred_quat, float) * np.asarray(true_quat, float), -1))
+    return d, np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+
+
+def confusion(true, pred, n: int) -> np.ndarray:
+    """(n, n + 1) counts: rows true class, columns predicted class, last column 'no hand found'."""
+    c = np.zeros((n, n + 1), np.int64)
+    np.add.at(c, (np.asarray(true), np.where(np.asarray(pred) < 0, n, pred)), 1)
+    return c
+
+
+def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson score interval of a binomial proportion k / n."""
+    if n == 0:
+        return float("nan"), float("nan")
+    p = k / n
+    den = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return float(centre - half), float(centre + half)
+
+
+def accuracy(pred, true) -> float:
+    return float(np.mean(np.asarray(pred) == np.asarray(true))) if len(true) else float("nan")
+
+
+def robot_accuracy(pred, true) -> dict:
+    """Share of test images whose recognised grasp maps to the same robot preshape as the true one."""
+    out = {}
+    for mapping, hands in GRASP_MAPPINGS.items():
+        for hand, table in hands.items():
+            names = np.array([table[g] for g in GRASP_CLASSES] + ["none"])
+            out[f"robot_grasp_accuracy_{mapping}_{hand}"] = float(np.mean(names[np.asarray(pred)] == names[true]))
+    return out
+
+
+def sweeps(cfg: Config, db, tests: dict, seg: dict, k: int) -> dict:
+    """Accuracy (exact kNN) against k, against the database grid and for every (B, L)."""
+    base = hog_jax.HOGConfig(n_bins=cfg.n_bins, n_levels=cfg.n_levels)
+    out = {"k": {}, "db": {}, "bl": {}}
+
+    def evaluate(db_, config, ks):
+        model = hog_jax.fit(hog_features(db_.images, db_.masks, np.ones(len(db_.labels), bool), config),
+                            db_.labels, db_.euler, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
+        res = {}
+        for name, t in tests.items():
+            x = hog_features(*seg[name], config)
+            ok = seg[name][2]
+            for kk in ks:
+                res[(name, kk)] = accuracy(knn_predict(model, x, ok, min(kk, len(db_.labels)))[0], t.labels)
+        return res
+
+    for (name, kk), acc in evaluate(db, base, cfg.k_values).items():
+        out["k"].setdefault(name, {})[kk] = acc
+    for g in progress(cfg.db_grids, desc="database sizes"):
+        a, e = parse_grid(g)
+        for (name, _), acc in evaluate(render_database(cfg, a, e), base, (k,)).items():
+            out["db"].setdefault(name, {})[a * e] = acc
+    pairs = [(b, lv) for b in cfg.bins_sweep for lv in cfg.levels_sweep]
+    for b, lv in progress(pairs, desc="B x L"):
+        for (name, _), acc in evaluate(db, hog_jax.HOGConfig(n_bins=b, n_levels=lv), (k,)).items():
+            out["bl"].setdefault(name, {})[(b, lv)] = acc
+    return out

@@ -1,0 +1,3 @@
+from experiments.oac_recognition.stages import main
+
+main()

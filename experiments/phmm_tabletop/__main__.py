@@ -1,0 +1,3 @@
+from experiments.phmm_tabletop.stages import main
+
+main()
