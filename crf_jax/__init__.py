@@ -12,13 +12,15 @@ convention), validation data for early stopping, and options=FitOptions(...) (ho
 method "lbfgs" | "adam" or any optax optimizer, max_iter, memory_size, learning_rate, gtol, delta,
 period, patience, eval_every; all but the optimiser, max_iter and memory_size are traced, so
 changing them never recompiles). It
-returns FitResult(model, info: TrainInfo). Options are never stored in a model.
+returns FitResult(model, info: TrainInfo). Options are never stored in a model. A non-finite
+objective is never reported as converged: at the start it is a ValueError naming X (features too large
+for float32), later the last finite parameters come back with info.diverged set and a RuntimeWarning.
 
 Linear-chain CRF (eqs. 3-4)
     fit_chain(X, y, lengths, n_labels=, connectivity=0, l2=1.0, validation=(Xv, yv[, lv]),
               options=FitOptions())                 -> FitResult(ChainCRF, TrainInfo)   y (B, T)
     predict(model, X, lengths)                       -> (B, T) Viterbi labels, -1 on padding
-    predict_marginals(model, X, lengths)             -> (B, T, K) P(y_t = k | x)
+    predict_marginals(model, X, lengths)             -> (B, T, K) P(y_t = k | x), each real row sums to 1
     segment_log_probs(model, X, lengths)             -> (B, K) log P(y_t = k for all t | x)  (pre-segmented, §4)
     log_likelihood(model, X, y, lengths)             -> (B,) log P(y | x)
 Hidden CRF (eqs. 5-6)
@@ -29,9 +31,10 @@ Factorial CRF, two coupled chains (eq. 7)
     fcrf_marginals(model, X, lengths, method="exact"|"loopy")  -> FCRFMarginals(action (B, T, Ka), object (B, T, Ko))
     fcrf_segment_log_probs(...) -> (B, Ka, Ko);  fcrf_predict_segments(...) -> SegmentLabels(action (B,), object (B,))
 CHCRF late fusion (eq. 8 / LfD eq. 9) and object history (LfD eq. 10)
-    cooccurrence(actions, objects, Ka, Ko, smoothing=0.0)  -> K (Ka, Ko)
+    cooccurrence(actions, objects, Ka, Ko, smoothing=0.0)  -> K (Ka, Ko)  (no pairs: needs smoothing > 0)
     fuse(log_p_action (B, Ka), log_p_object (B, Ko), K)    -> CHCRFResult(log_joint (B, Ka, Ko),
-                                                               log_z (B,), log_action, log_object)
+                                                               log_z (B,), log_action, log_object,
+                                                               impossible (B,): Z = 0, all -inf, never NaN)
     history_prior(history (I, Ka, Ko), history_positions (I, P), position (P,), default_distance) -> (Ka, Ko)
     apply_history(log_joint (Ka, Ko), prior (Ka, Ko))     -> HistoryPosterior(log_joint, log_normaliser)
 Baselines

@@ -136,7 +136,8 @@ def segment_log_probs(model: ChainCRF, X: Float[ArrayLike, "B T D"], lengths: In
 
 def log_likelihood(model: ChainCRF, X: Float[ArrayLike, "B T D"], y: Int[ArrayLike, "B T"],
                    lengths: Int[ArrayLike, " B"] | None = None) -> Float[Array, " B"]:
-    """log P(y_b | x_b) per sequence (B,) for labels y (B, T)."""
+    """log P(y_b | x_b) per sequence (B,) for labels y (B, T); at most 0 (float32 rounding of the two
+    large terms score - log Z, for large potentials, is clipped)."""
     Xj, lj = _prepare(model, X, lengths)
     yc = check_labels(y, np.asarray(lj), model.n_labels)
-    return -nll(model, Xj, jnp.asarray(yc[:, : Xj.shape[1]]), lj)
+    return jnp.minimum(-nll(model, Xj, jnp.asarray(yc[:, : Xj.shape[1]]), lj), 0.0)

@@ -16,16 +16,21 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float, Int
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from lfd_common import as_array, check_int, check_real, float_dtype, safe_logsumexp
 
 
 class CHCRFResult(NamedTuple):
+    """The fused distribution per row b. Where `impossible[b]` (K(a, o) P(a | x) P(o | x) = 0 for every
+    pair: Z(x) = 0, no distribution), log_z[b] is -inf and log_joint, log_action, log_object are -inf
+    everywhere in row b (never NaN)."""
+
     log_joint: Float[Array, "B Ka Ko"]  # log P(a, o | x)
     log_z: Float[Array, " B"]  # log Z(x) = log sum_{a,o} K(a, o) P(a | x) P(o | x)
     log_action: Float[Array, "B Ka"]  # marginal log P(a | x) of the fused model
     log_object: Float[Array, "B Ko"]  # marginal log P(o | x) of the fused model
+    impossible: Bool[Array, " B"]  # Z(x) = 0: no (a, o) pair has positive mass
 
 
 class HistoryPosterior(NamedTuple):
@@ -39,26 +44,47 @@ def _out(x) -> Array:
 
 def cooccurrence(actions: Int[ArrayLike, " N"], objects: Int[ArrayLike, " N"], n_actions: int, n_objects: int,
                  smoothing: float = 0.0) -> Float[Array, "Ka Ko"]:
-    """K (Ka, Ko): (count(a, o) + smoothing) / sum, from paired training labels actions, objects (N,)."""
+    """K (Ka, Ko): (count(a, o) + smoothing) / sum, from paired training labels actions, objects (N,).
+
+    N may be 0 when smoothing > 0 (K is then uniform); with no pairs and no smoothing K is undefined
+    (`ValueError`).
+    """
     n_actions = check_int(n_actions, "n_actions", min_value=1)
     n_objects = check_int(n_objects, "n_objects", min_value=1)
     smoothing = check_real(smoothing, "smoothing", min_value=0.0)
-    a = as_array(actions, "actions", ndim=1, dtype=np.int64, min_value=0, max_value=n_actions - 1)
-    o = as_array(objects, "objects", ndim=1, dtype=np.int64, min_value=0, max_value=n_objects - 1)
+    a = as_array(actions, "actions", ndim=1, dtype=np.int64, min_value=0, max_value=n_actions - 1,
+                 nonempty=False)
+    o = as_array(objects, "objects", ndim=1, dtype=np.int64, min_value=0, max_value=n_objects - 1,
+                 nonempty=False)
     if a.shape != o.shape:
         raise ValueError(f"objects: expected {a.shape[0]} labels (one per action label), got {o.shape[0]}")
+    if a.size == 0 and smoothing == 0.0:
+        raise ValueError("actions: no training pairs and smoothing=0: the co-occurrence rates are undefined "
+                         "(give pairs or smoothing > 0)")
     counts = np.zeros((n_actions, n_objects))
     np.add.at(counts, (a, o), 1.0)
     counts += smoothing
     return _out(counts / counts.sum())
 
 
+def _row_peak(x: Array, axis) -> Array:
+    """max over `axis` (keepdims), 0 where the slice is all -inf: a shift that keeps sums finite."""
+    m = jnp.max(x, axis=axis, keepdims=True)
+    return jnp.where(jnp.isfinite(m), m, 0.0)
+
+
 @jax.jit
 def fuse_jit(log_pa: Array, log_po: Array, log_k: Array) -> CHCRFResult:
-    joint = log_k[None] + log_pa[:, :, None] + log_po[:, None, :]
-    log_z = safe_logsumexp(joint.reshape(joint.shape[0], -1), axis=-1)
-    log_joint = joint - log_z[:, None, None]
-    return CHCRFResult(log_joint, log_z, safe_logsumexp(log_joint, axis=2), safe_logsumexp(log_joint, axis=1))
+    # shift each factor by its max first, so that large unnormalised scores cannot overflow the sum
+    pa_peak, po_peak, k_peak = _row_peak(log_pa, 1), _row_peak(log_po, 1), _row_peak(log_k, (0, 1))
+    joint = (log_k - k_peak)[None] + (log_pa - pa_peak)[:, :, None] + (log_po - po_peak)[:, None, :]
+    log_z_shifted = safe_logsumexp(joint.reshape(joint.shape[0], -1), axis=-1)
+    impossible = log_z_shifted == -jnp.inf
+    log_joint = jnp.where(impossible[:, None, None], -jnp.inf,
+                          joint - jnp.where(impossible, 0.0, log_z_shifted)[:, None, None])
+    log_z = log_z_shifted + pa_peak[:, 0] + po_peak[:, 0] + k_peak[0, 0]
+    return CHCRFResult(log_joint, log_z, safe_logsumexp(log_joint, axis=2), safe_logsumexp(log_joint, axis=1),
+                       impossible)
 
 
 def fuse(log_p_action: Float[ArrayLike, "B Ka"], log_p_object: Float[ArrayLike, "B Ko"],
@@ -66,13 +92,13 @@ def fuse(log_p_action: Float[ArrayLike, "B Ka"], log_p_object: Float[ArrayLike, 
     """Late fusion (eq. 8): log_p_action (B, Ka), log_p_object (B, Ko), cooc K (Ka, Ko) >= 0.
 
     The classifier outputs may be normalised log probabilities or unnormalised log scores (Z then
-    carries their scale, as in LfD Fig. 8).
+    carries their scale, as in LfD Fig. 8); -inf (probability 0) is allowed, NaN and +inf are not.
+    A row where K(a, o) P(a | x) P(o | x) = 0 for every pair has no fused distribution: it is flagged
+    in `impossible`, with log_z = -inf and -inf log probabilities (see `CHCRFResult`).
     """
-    la = as_array(log_p_action, "log_p_action", ndim=2, finite=False)
-    lo = as_array(log_p_object, "log_p_object", ndim=2, finite=False)
-    for name, arr in (("log_p_action", la), ("log_p_object", lo)):
-        if np.any(np.isnan(arr)) or np.any(arr == np.inf):
-            raise ValueError(f"{name}: contains NaN or +inf")
+    dtype = float_dtype()
+    la = _log_scores(log_p_action, "log_p_action", dtype)
+    lo = _log_scores(log_p_object, "log_p_object", dtype)
     if la.shape[0] != lo.shape[0]:
         raise ValueError(f"log_p_object: batch of {lo.shape[0]} does not match the {la.shape[0]} action rows")
     k = as_array(cooc, "cooc", shape=(la.shape[1], lo.shape[1]), min_value=0.0)
@@ -80,7 +106,19 @@ def fuse(log_p_action: Float[ArrayLike, "B Ka"], log_p_object: Float[ArrayLike, 
         raise ValueError("cooc: all co-occurrence rates are 0")
     with np.errstate(divide="ignore"):
         log_k = np.log(k)
-    return fuse_jit(jnp.asarray(la, jnp.float32), jnp.asarray(lo, jnp.float32), jnp.asarray(log_k, jnp.float32))
+    return fuse_jit(jnp.asarray(la, dtype), jnp.asarray(lo, dtype), jnp.asarray(log_k, dtype))
+
+
+def _log_scores(value, name: str, dtype) -> np.ndarray:
+    """(B, K) log scores: non-empty, no NaN or +inf, finite values within `dtype`'s range."""
+    arr = as_array(value, name, ndim=2, finite=False)
+    if np.any(np.isnan(arr)) or np.any(arr == np.inf):
+        raise ValueError(f"{name}: contains NaN or +inf")
+    finite = arr[np.isfinite(arr)]
+    limit = np.finfo(dtype).max
+    if finite.size and np.max(np.abs(finite)) > limit:
+        raise ValueError(f"{name}: values up to {np.max(np.abs(finite)):.3g} overflow {np.dtype(dtype).name}")
+    return arr
 
 
 def history_prior(history: Float[ArrayLike, "I Ka Ko"], history_positions: Float[ArrayLike, "I P"],
@@ -111,12 +149,14 @@ def history_prior(history: Float[ArrayLike, "I Ka Ko"], history_positions: Float
 def apply_history(log_joint: Float[ArrayLike, "Ka Ko"], prior: Float[ArrayLike, "Ka Ko"]) -> HistoryPosterior:
     """P(a, o | x, history) ∝ P(a, o | x) * prior for one OAC: log_joint (Ka, Ko) ->
     HistoryPosterior(normalised log (Ka, Ko), log normaliser ())."""
-    lj = as_array(log_joint, "log_joint", ndim=2, finite=False)
+    lj = _log_scores(log_joint, "log_joint", np.float64)
+    if not np.any(np.isfinite(lj)):
+        raise ValueError("log_joint: every (action, object) pair has probability 0 (all -inf)")
     pr = as_array(prior, "prior", shape=lj.shape, min_value=0.0)
     with np.errstate(divide="ignore"):
         s = lj + np.log(pr)
     m = np.max(s)
     if not np.isfinite(m):
-        raise ValueError("prior: gives zero probability to every (action, object) pair")
+        raise ValueError("prior: gives zero probability to every (action, object) pair the log_joint allows")
     log_norm = m + np.log(np.sum(np.exp(s - m)))
     return HistoryPosterior(_out(s - log_norm), _out(log_norm))

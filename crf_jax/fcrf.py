@@ -263,7 +263,9 @@ def segment_log_probs_jit(model: FCRF, X, lengths, method: str = "exact", n_iter
     steps = (lengths - 1)[:, None, None]
     path = (sa[:, :, None] + so[:, None, :] + lengths[:, None, None] * coupling
             + steps * (jnp.diagonal(Ta)[:, None] + jnp.diagonal(To)[None, :]))
-    return path - log_partition(model, X, lengths, method, n_iter)[:, None, None]
+    # a log probability (<= 0; float32 rounding of two large terms could exceed it). With "loopy" the
+    # Bethe log Z is an approximation, so the values are approximate too.
+    return jnp.minimum(path - log_partition(model, X, lengths, method, n_iter)[:, None, None], 0.0)
 
 
 def _prepare(model: FCRF, X, lengths, method, n_iter):

@@ -76,6 +76,8 @@ def class_scores(model: HCRF, X: Float[Array, "B T D"], lengths: Int[Array, " B"
 def log_probs_jit(model: HCRF, X: Float[Array, "B T D"], lengths: Int[Array, " B"]) -> Float[Array, "B K"]:
     """log P(y | x) (B, K)."""
     s = class_scores(model, X, lengths)
+    # shift by the max first: s - logsumexp(s) would round at the magnitude of s (large potentials)
+    s = s - jax.lax.stop_gradient(jnp.max(s, axis=-1, keepdims=True))
     return s - safe_logsumexp(s, axis=-1)[:, None]
 
 

@@ -21,6 +21,7 @@ spanning ~70 nats, as in a wild line-search step) the pass is redone with the ex
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import jax.numpy as jnp
@@ -205,17 +206,36 @@ def forward_backward(unary: Unary, trans: Trans, length: Lengths) -> ForwardBack
 def marginals(unary: Unary, trans: Trans, length: Lengths) -> Marginals:
     """Posterior marginals: node (..., T, K) P(y_t = k | x), pair (..., T-1, K, K) P(y_t = i, y_{t+1} = j | x).
 
-    Rows for padded frames (and pairs reaching into padding) are exactly 0.
+    Rows for padded frames (and pairs reaching into padding) are exactly 0; every real frame's node
+    row and pair matrix sums to 1 (normalised per frame in log space, so also for huge potentials).
     """
     u, lens, restore = _as_batch(unary, length)
-    alpha, beta, log_z = forward_backward(u, trans, lens)
+    alpha, beta, _ = forward_backward(u, trans, lens)
     u = _mask_rows(u, lens)
     t = jnp.arange(u.shape[1])[None, :]
-    log_z = log_z[:, None, None]
-    node = jnp.where((t < lens[:, None])[..., None], jnp.exp(alpha + beta - log_z), 0.0)
-    log_pair = alpha[:, :-1, :, None] + trans + (u[:, 1:] + beta[:, 1:])[:, :, None, :] - log_z[..., None]
-    pair = jnp.where((t[:, 1:] < lens[:, None])[..., None, None], jnp.exp(log_pair), 0.0)
+    # Normalised per frame in log space, not by the global log Z: alpha + beta and log Z are each of
+    # the order of the summed potentials (T * |x| * |w|), and exp(alpha + beta - log Z) loses their
+    # common magnitude to float32 cancellation (rows summing to 1.6 at |x| ~ 1e6). The per-frame
+    # logsumexp of alpha + beta is log Z up to that rounding, and it makes every row sum to 1.
+    node = jnp.where((t < lens[:, None])[..., None], jnp.exp(_normalise_last(alpha + beta, 1)), 0.0)
+    log_pair = alpha[:, :-1, :, None] + trans + (u[:, 1:] + beta[:, 1:])[:, :, None, :]
+    pair = jnp.where((t[:, 1:] < lens[:, None])[..., None, None], jnp.exp(_normalise_last(log_pair, 2)), 0.0)
     return Marginals(restore(node), restore(pair))
+
+
+def _normalise_last(log_p: Array, n_axes: int) -> Array:
+    """log_p minus its logsumexp over the last `n_axes` axes; -inf where that slice is all -inf
+    (a frame no label sequence reaches: its marginals are 0, not NaN). NaN stays NaN."""
+    lead = log_p.shape[: log_p.ndim - n_axes]
+    size = math.prod(log_p.shape[log_p.ndim - n_axes:])
+    flat = log_p.reshape(lead + (size,))
+    # the max first (exact differences of nearby large values), then the small logsumexp of the rest:
+    # subtracting logsumexp(log_p) itself would round at the magnitude of log_p
+    peak = jnp.max(flat, axis=-1, keepdims=True)
+    empty = peak == -jnp.inf
+    shifted = flat - jnp.where(empty, 0.0, peak)
+    out = jnp.where(empty, -jnp.inf, shifted - safe_logsumexp(shifted, axis=-1)[..., None])
+    return out.reshape(log_p.shape)
 
 
 def sequence_score(unary: Float[Array, "T K"], trans: Trans, labels: Int[Array, " T"],
@@ -267,4 +287,5 @@ def constant_path_log_prob(unary: Unary, trans: Trans, length: Lengths) -> Float
     u, lens, restore = _as_batch(unary, length)
     u = _mask_rows(u, lens)
     path = jnp.sum(u, axis=1) + (lens - 1)[:, None] * jnp.diagonal(trans)[None, :]
-    return restore(path - log_partition(u, trans, lens)[:, None])
+    # a log probability: at most 0 (float32 rounding of two large, nearly equal terms can exceed it)
+    return restore(jnp.minimum(path - log_partition(u, trans, lens)[:, None], 0.0))

@@ -9,7 +9,12 @@ stopping rules holds (so run times can be compared with it one to one):
 * `max_iter` iterations,
 * early stopping: with `val_data`, the validation objective is evaluated every `eval_every`
   iterations and the loop stops after `patience` evaluations without improvement; the best
-  parameters seen are returned.
+  parameters seen are returned,
+* divergence: the objective, its gradient or the parameters became non-finite (NaN / inf, e.g. an
+  overflowing step or features too large for float32). That step is never accepted: the loop stops
+  with the last finite parameters and `TrainInfo.diverged` set, and it is never reported as
+  `converged`. A non-finite objective at the start stops the loop before the first iteration
+  (`n_iter == 0`). The `fit_*` functions raise or warn on it (`crf_jax.train`).
 
 Only what changes the compiled program is static: the optimiser (`method` or `optimizer`),
 `max_iter` (the length of the loss histories) and `memory_size` (the L-BFGS memory). Tolerances,
@@ -95,11 +100,12 @@ class TrainInfo(NamedTuple):
     """What `minimize` did. Histories have one slot per iteration; unused slots are NaN."""
 
     n_iter: Int[Array, ""]  # iterations run
-    converged: Bool[Array, ""]  # a tolerance stopped the loop (or a step gave a non-finite objective)
+    converged: Bool[Array, ""]  # a tolerance stopped the loop (never set with a non-finite objective)
     early_stopped: Bool[Array, ""]  # validation patience ran out
     loss: Float[Array, " max_iter"]  # training objective after each iteration
     val_loss: Float[Array, " max_iter"]  # validation objective where evaluated
     best_iter: Int[Array, ""]  # iteration whose parameters were returned
+    diverged: Bool[Array, ""]  # objective, gradient or parameters became non-finite: stopped, last finite point kept
 
 
 class FitResult(NamedTuple):
@@ -116,6 +122,12 @@ def l2_penalty(params: Any) -> Array:
 
 def _tree_norm(tree: Any) -> Array:
     return jnp.sqrt(l2_penalty(tree))
+
+
+def _all_finite(*trees: Any) -> Array:
+    """() bool: every element of every leaf is finite."""
+    leaves = [leaf for tree in trees for leaf in jax.tree_util.tree_leaves(tree)]
+    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in leaves]))
 
 
 def _optimizer(method: str, optimizer, learning_rate, memory_size: int) -> optax.GradientTransformationExtraArgs:
@@ -178,10 +190,11 @@ def _minimize(objective, params, data, val_data, traced, *, static, val_objectiv
         params=params, state=state0, value=value0, grad=grad0, k=jnp.int32(0),
         loss=nan_hist, val=nan_hist, best_params=params, best_val=big, best_iter=jnp.int32(0),
         bad=jnp.int32(0), converged=jnp.bool_(False), early=jnp.bool_(False),
+        diverged=~_all_finite(value0, grad0, params),  # a non-finite start: no iteration runs
     )
 
     def cond(c):
-        return (c["k"] < max_iter) & ~c["converged"] & ~c["early"]
+        return (c["k"] < max_iter) & ~c["converged"] & ~c["early"] & ~c["diverged"]
 
     def body(c):
         updates, state = opt.update(c["grad"], c["state"], c["params"], value=c["value"], grad=c["grad"],
@@ -192,8 +205,9 @@ def _minimize(objective, params, data, val_data, traced, *, static, val_objectiv
         else:
             value, grad = jax.value_and_grad(fun)(params)
         k = c["k"]
-        # a non-finite objective (an overflowing step) is never accepted: keep the last good point
-        ok = jnp.isfinite(value)
+        # a non-finite objective, gradient or step (an overflow) is never accepted: keep the last
+        # good point and stop as diverged (never as converged)
+        ok = _all_finite(value, grad, params)
         params = jax.tree_util.tree_map(lambda n, o: jnp.where(ok, n, o), params, c["params"])
         value = jnp.where(ok, value, c["value"])
         grad = jax.tree_util.tree_map(lambda n, o: jnp.where(ok, n, o), grad, c["grad"])
@@ -201,9 +215,9 @@ def _minimize(objective, params, data, val_data, traced, *, static, val_objectiv
         gnorm = _tree_norm(grad) / jnp.maximum(1.0, _tree_norm(params))
         past = jnp.where(k + 1 > period, loss[jnp.maximum(k - period, 0)], jnp.inf)  # f_{k+1-period}
         rel = (past - value) / jnp.maximum(jnp.abs(value), 1e-30)
-        converged = (gnorm < traced["gtol"]) | (rel < traced["delta"]) | ~ok
+        converged = ok & ((gnorm < traced["gtol"]) | (rel < traced["delta"]))
         out = dict(c, params=params, state=state, value=value, grad=grad, k=k + 1, loss=loss,
-                   converged=converged)
+                   converged=converged, diverged=~ok)
         if vfun is None:
             return dict(out, best_params=params, best_iter=k + 1)
 
@@ -224,5 +238,5 @@ def _minimize(objective, params, data, val_data, traced, *, static, val_objectiv
     never = ~jnp.isfinite(c["best_val"]) if vfun is not None else jnp.bool_(False)  # no evaluation ran
     best = jax.tree_util.tree_map(lambda f, b: jnp.where(never, f, b), c["params"], c["best_params"])
     best_iter = jnp.where(never, c["k"], c["best_iter"])
-    info = TrainInfo(c["k"], c["converged"], c["early"], c["loss"], c["val"], best_iter)
+    info = TrainInfo(c["k"], c["converged"], c["early"], c["loss"], c["val"], best_iter, c["diverged"])
     return FitResult(best, info)

@@ -9,9 +9,14 @@ hidden states, the FCRF's inference) are fit arguments too; validation data, whe
 without the penalty (the NLL alone, a held-out criterion) for early stopping.
 
 Every `fit_*` returns `FitResult(model, info)`. Padded batches are handled by the models' masks
-(lengths), so a batch is one jitted call.
+(lengths), so a batch is one jitted call. A fit never reports a non-finite objective as converged:
+if the objective (or its gradient) is already non-finite at the starting parameters (features whose
+products overflow float32), the fit raises `ValueError` naming `X`; if it becomes non-finite later,
+the last finite parameters are returned with `info.diverged` set and a `RuntimeWarning`.
 """
 from __future__ import annotations
+
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -114,6 +119,20 @@ def _data(*arrays, l2: float) -> tuple:
     return (*(jnp.asarray(a) for a in arrays), jnp.float32(l2))
 
 
+def _finish(result: FitResult, fit: str, name: str = "X") -> FitResult:
+    """`result`, after checking that the search never met a non-finite objective (see the module doc)."""
+    info = result.info
+    if bool(info.diverged):
+        if int(info.n_iter) == 0:
+            raise ValueError(f"{name}: the {fit} objective or its gradient is not finite at the starting "
+                             "parameters (NaN or inf in the compute dtype): the features are too large, "
+                             "rescale them")
+        warnings.warn(f"{fit}: the objective became non-finite at iteration {int(info.n_iter)}; returning the "
+                      "last finite parameters (info.diverged is set, info.converged is not)",
+                      RuntimeWarning, stacklevel=3)
+    return result
+
+
 # ----------------------------------------------------------------------------------------------
 # the fits
 # ----------------------------------------------------------------------------------------------
@@ -146,7 +165,9 @@ def fit_chain(
         if (init.connectivity, init.n_features, init.n_labels) != (connectivity, Xc.shape[2], n_labels):
             raise ValueError("init: its connectivity, feature and label counts must match the data and arguments")
         params = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), init)
-    return minimize(chain_objective, params, data, val_data, options)
+        if not all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in params):
+            raise ValueError("init: contains NaN or infinite values (or values overflowing float32)")
+    return _finish(minimize(chain_objective, params, data, val_data, options), "fit_chain")
 
 
 def fit_hcrf(
@@ -169,7 +190,7 @@ def fit_hcrf(
     val_data = None if Xv is None else _data(
         Xv, check_class_labels(yv[0], Xv.shape[0], n_labels, name="validation[1]"), lv, l2=0.0)
     params = init_hcrf(jax.random.PRNGKey(seed), Xc.shape[2], n_labels, n_hidden, connectivity)
-    return minimize(hcrf_objective, params, data, val_data, options)
+    return _finish(minimize(hcrf_objective, params, data, val_data, options), "fit_hcrf")
 
 
 def fit_fcrf(
@@ -199,7 +220,7 @@ def fit_fcrf(
         _frames(yv[1], lv, n_objects, "validation[2]", Xv.shape[1]), lv, l2=0.0)
     objective = fcrf_objective_exact if inference == "exact" else fcrf_objective_loopy
     params = init_fcrf(Xc.shape[2], n_actions, n_objects, connectivity)
-    return minimize(objective, params, data, val_data, options)
+    return _finish(minimize(objective, params, data, val_data, options), "fit_fcrf")
 
 
 def fit_linear(
@@ -223,7 +244,7 @@ def fit_linear(
         Xv = check_vectors(Xv, n_features=Xc.shape[1], name="validation[0]")
         val_data = _data(Xv, check_class_labels(yv, Xv.shape[0], n_labels, name="validation[1]"), l2=0.0)
     objective = logistic_objective if kind == "logistic" else svm_objective
-    return minimize(objective, init_linear(Xc.shape[1], n_labels), data, val_data, options)
+    return _finish(minimize(objective, init_linear(Xc.shape[1], n_labels), data, val_data, options), "fit_linear")
 
 
 __all__ = [

@@ -6,7 +6,7 @@ Pipeline: frames -> `segment` (skin GMM, median filter, connected component, cro
 
 Modules, each importing only those before it: `exact` (exact search and the neighbour result type)
 <- `lsh` (hyperplane LSH, tuned against `exact`) <- `knn` (classification on either); `hog` and
-`segment` stand alone; all use `lfd_common`.
+`segment` stand alone; all use `lfd_common` (and the private `_checks`: key and feature-range checks).
 
 Public API (shapes: B batch, H x W pixels, D feature length, N database points, Q queries):
 
@@ -23,7 +23,7 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
 * Exact search: `exact_search(data, queries, k)` -> `LSHResult` (the drop-in for `query`).
 * kNN: `fit(data, labels, orientations)` -> `KNNModel`
   (sigma from eq. 5), `predict(model, queries, k, index=None)` -> `Prediction(label, scores, quat,
-  euler, indices, distances)`, `intra_class_sigma`, `vote`, `mean_rotation`, `euler_to_quat`,
+  euler, indices, distances, found)`, `intra_class_sigma`, `vote`, `mean_rotation`, `euler_to_quat`,
   `quat_to_euler`.
 
 Example::
@@ -37,7 +37,18 @@ Example::
 
 Every public function validates its numpy input (outside jit) and raises `ValueError` naming the
 argument: empty batch, non-2-D image, all-zero image, NaN pixels, k larger than the database, a query
-of the wrong dimension, an orientation array that does not match the labels.
+of the wrong dimension, an orientation array that does not match the labels, an int where a
+`jax.random` key is expected, an empty tuning grid, n_tables * n_per_table < k (`n_per_table`), and
+features beyond |x| <= 2^60 / sqrt(D) (squared distances would overflow float32).
+
+Edge cases: images whose max |I| is outside [2^-40, 2^60] are rescaled by an exact power of two
+(HOG is scale invariant under "global"/"cell" normalisation); a GMM component fitted to one point
+(or identical points) gets the floor covariance reg * I (a `UserWarning` for N <= P); eq. 5 sigma = 0
+(identical or all-zero features) is floored at eps_32 * max(1, max|x|) with a `UserWarning`.
+"Not found": `lsh.query` returns index -1 / distance inf for missing neighbours, and `predict` with
+an index marks a query with none at all by `Prediction.found` False, label -1, scores 0 and NaN
+orientation (no silent fallback); exact search always finds k. `segment` marks frames without skin
+by `Segmentation.found` False.
 """
 from hog_jax.exact import LSHResult, exact_search
 from hog_jax.hog import HOGConfig, hog, hog_dim

@@ -5,6 +5,10 @@ Shapes: N database points, Q queries, D feature dimension, k neighbours.
 `exact_search` is the exact drop-in for `lsh.query` (same `LSHResult`): the LSH autotuner measures
 recall against it and `knn.predict` uses it when no index is given. The database is scanned in blocks
 (a running top-k merged block by block), so memory stays O(query chunk x block) for millions of points.
+
+Range: data and queries must satisfy |x| <= 2^60 / sqrt(D) (`_checks.feature_limit`), so that the
+expanded squared distances |q|^2 - 2 q.x + |x|^2 cannot overflow float32; larger values are a
+`ValueError` naming the argument (scale the features), never wrong neighbours.
 """
 from __future__ import annotations
 
@@ -16,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from hog_jax._checks import check_feature_range
 from lfd_common import as_array, check_int
 
 __all__ = ["LSHResult", "exact_search"]
@@ -77,14 +82,18 @@ def check_queries(queries, dim: int) -> tuple[np.ndarray, bool]:
     q = q[None] if single else q
     if q.shape[1] != dim:
         raise ValueError(f"queries: expected dimension D = {dim} (the database's), got {q.shape[1]}")
+    check_feature_range(q, "queries")
     return q, single
 
 
 def exact_search(data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"],
                  k: int = 10) -> LSHResult:
     """Exact Euclidean kNN of each query (Q, D) (or one (D,) query) in `data` (N, D): an `LSHResult`
-    with n_scanned = N. Blocked over the database (a running top-k merged per block of points)."""
-    data = as_array(data, "data", ndim=2, dtype=np.float32)
+    with n_scanned = N. Blocked over the database (a running top-k merged per block of points).
+
+    Every query finds k neighbours (k <= N). ValueError naming the argument for empty or non-finite
+    input, a query of another dimension, k outside [1, N], or |values| > 2^60 / sqrt(D)."""
+    data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     q, single = check_queries(queries, data.shape[1])
     N = data.shape[0]
     check_int(k, "k", min_value=1, max_value=N)

@@ -34,6 +34,13 @@ level sums to 1 (invariant to contrast), "cell": each cell histogram divided by 
 an empty cell stays 0), or "none" (raw sums). A mask (B, H, W) excludes pixels from voting; the
 gradient is still computed from the image as given (segmented images have a black background, so
 the hand's outline votes from the pixels on the hand side).
+
+Range: any finite float32 image is accepted. An image whose largest |I| lies outside [2^-40, 2^60]
+(where gx^2 + gy^2 would overflow or underflow float32) is first multiplied by a power of two that
+brings it into [1, 2): exact, and the features do not change ("global" and "cell" normalisation and
+"count" weighting are invariant to a positive scale); with normalize="none" and magnitude weighting
+the raw sums are scaled back, and a `ValueError` names `images` when they do not fit float32.
+Images inside the range are not touched (bit-identical results, no extra work).
 """
 from __future__ import annotations
 
@@ -230,16 +237,41 @@ def _hog_jit(images, mask, config: HOGConfig):
 
 @jax.jit
 def _image_stats(images):
-    """Per image: (all finite, any non-zero) for a (B, H, W) device array."""
+    """Per image: (all finite, max |I|) for a (B, H, W) device array."""
     flat = images.reshape(images.shape[0], -1)
-    return jnp.isfinite(flat).all(axis=1), (flat != 0).any(axis=1)
+    return jnp.isfinite(flat).all(axis=1), jnp.max(jnp.abs(flat), axis=1)
+
+
+_SAFE_LO, _SAFE_HI = 2.0**-40, 2.0**60  # max |I| per image for which gradients squared fit float32
+
+
+def _rescale_exponents(peak: np.ndarray) -> np.ndarray | None:
+    """Per image e with peak / 2^e in [1, 2) where peak (max |I|, > 0) is outside the safe range, 0
+    elsewhere; None when every image is inside it."""
+    out = (peak > _SAFE_HI) | (peak < _SAFE_LO)
+    if not out.any():
+        return None
+    return np.where(out, np.frexp(peak.astype(np.float64))[1] - 1, 0).astype(np.int32)
+
+
+def _times_pow2(x, e: np.ndarray):
+    """x (B, ...) * 2^e[b] per row, exactly (numpy: ldexp; jax: two power-of-two factors, each a
+    normal float32)."""
+    shape = (-1,) + (1,) * (x.ndim - 1)
+    if isinstance(x, np.ndarray):
+        return np.ldexp(x, e.reshape(shape)).astype(np.float32, copy=False)
+    half = e // 2
+    f1 = np.ldexp(np.float32(1), half).astype(np.float32).reshape(shape)
+    f2 = np.ldexp(np.float32(1), e - half).astype(np.float32).reshape(shape)
+    return x * jnp.asarray(f1) * jnp.asarray(f2)
 
 
 _STREAM_PIXELS = 1 << 22  # host (numpy) input is sent to the device in chunks of ~4 Mpixel
 
 
 def _check_images(images):
-    """Validate a (B, H, W) batch (numpy or jax) -> float32 array of the same kind."""
+    """Validate a (B, H, W) batch (numpy or jax) -> (float32 array of the same kind, per-image
+    rescale exponents or None; see `_rescale_exponents`)."""
     if isinstance(images, jax.Array):
         if images.ndim not in (2, 3):
             raise ValueError(f"images: expected a 2-D image or a 3-D batch (B, H, W), got shape {images.shape}")
@@ -247,20 +279,29 @@ def _check_images(images):
             raise ValueError(f"images: must not be empty, got shape {images.shape}")
         arr = images.astype(jnp.float32)
         arr = arr[None] if arr.ndim == 2 else arr
-        finite, nonzero = (np.asarray(v) for v in _image_stats(arr))
+        finite, peak = (np.asarray(v) for v in _image_stats(arr))
+        nonzero = peak != 0
+        source = None
     else:
         arr = as_array(images, "images", ndim=(2, 3), dtype=None, finite=False)
         if not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
             raise ValueError(f"images: expected a numeric array, got dtype {arr.dtype}")
-        arr = np.asarray(arr[None] if arr.ndim == 2 else arr, np.float32)
+        source = arr[None] if arr.ndim == 2 else arr
+        with np.errstate(over="ignore"):
+            arr = np.asarray(source, np.float32)
         flat = arr.reshape(arr.shape[0], -1)
         hi, lo = flat.max(axis=1), flat.min(axis=1)  # NaN propagates; two passes, no temporaries
         finite, nonzero = np.isfinite(hi) & np.isfinite(lo), (hi != 0) | (lo != 0)
+        peak = np.maximum(np.abs(hi), np.abs(lo))
     if not finite.all():
-        raise ValueError(f"images: image {int(np.argmin(finite))} contains NaN or infinite pixels")
+        b = int(np.argmin(finite))
+        if source is not None and np.all(np.isfinite(source[b])):
+            raise ValueError(f"images: image {b} has values up to {np.max(np.abs(source[b])):.3g}, beyond "
+                             f"float32's range ({np.finfo(np.float32).max:.3g})")
+        raise ValueError(f"images: image {b} contains NaN or infinite pixels")
     if not nonzero.all():
         raise ValueError(f"images: image {int(np.argmin(nonzero))} is all zero (nothing to describe)")
-    return arr
+    return arr, _rescale_exponents(peak)
 
 
 def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGConfig = HOGConfig(),
@@ -282,7 +323,7 @@ def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGCo
     """
     _check_config(config)
     single = np.ndim(images) == 2
-    arr = _check_images(images)
+    arr, shift = _check_images(images)
     B, H, W = arr.shape
     need = max(_cells_per_side(config))
     if H < need or W < need:
@@ -298,10 +339,18 @@ def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGCo
         has = m.reshape(B, -1).any(axis=1)
         if not has.all():
             raise ValueError(f"mask: image {int(np.argmin(has))} has no unmasked pixel")
+    if shift is not None:  # out of the safe range: computed on arr / 2^shift (exact)
+        arr = _times_pow2(arr, -shift)
     if isinstance(arr, jax.Array):
         out = _hog_jit(arr, None if m is None else jnp.asarray(m), config)
     else:
         out = _hog_stream(arr, m, config)
+    if shift is not None and config.normalize == "none" and config.weighting == "magnitude":
+        out = _times_pow2(out, shift)  # raw magnitude sums scale with the image
+        ok = np.isfinite(np.asarray(out)).all(axis=1)
+        if not ok.all():
+            raise ValueError(f"images: the raw (normalize='none') gradient sums of image {int(np.argmin(ok))} "
+                             "overflow float32; scale the images down or normalise")
     return out[0] if single else out
 
 

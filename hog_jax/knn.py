@@ -18,17 +18,27 @@ Shapes: N database points, M classes, Q queries, D feature dimension, k neighbou
   R = Rz(phi) Ry(theta) Rx(psi) (scipy's `Rotation.from_euler("ZYX", ...)`); the conversions are
   `lfd_common.rotations`'.
 * Neighbours come from `lsh.query` (an index) or `exact.exact_search` (none).
+
+Edge cases: when eq. 5 gives sigma = 0 (every class's points coincide, e.g. identical or all-zero
+features) or a sigma below the float32 resolution of the data, `fit` floors it at
+eps_32 * max(1, max|x|) with a `UserWarning`; eq. 3 is then in effect the nearest-neighbour vote (its
+limit sigma -> 0). An explicit sigma must lie in [2^-60, 2^62] (sigma^2 finite and normal in
+float32). Features must satisfy |x| <= 2^60 / sqrt(D) (see `exact`). "Not found": a query for which an
+LSH index returns no neighbour at all gets `Prediction.found` False, label -1, scores 0, quat and
+euler NaN (indices -1, distances inf); exact search always finds k neighbours (found True).
 """
 from __future__ import annotations
 
+import warnings
 from functools import partial
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float, Int
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from hog_jax._checks import check_feature_range
 from hog_jax.exact import exact_search
 from hog_jax.lsh import LSHIndex, query
 from lfd_common import as_array, check_int, check_real, euler_zyx_to_quat, quat_to_euler_zyx
@@ -122,8 +132,10 @@ class KNNModel(NamedTuple):
 
 
 class Prediction(NamedTuple):
-    """label (Q,) int32; scores (Q, M) eq. 3 class scores; quat (Q, 4) and euler (Q, 3) the eq. 4
-    orientation (NaN where the model has none); indices / distances (Q, k) the neighbours used."""
+    """label (Q,) int32 (-1 where no neighbour was found); scores (Q, M) eq. 3 class scores (0 where
+    none was found); quat (Q, 4) and euler (Q, 3) the eq. 4 orientation (NaN where the model has none
+    or no neighbour was found); indices / distances (Q, k) the neighbours used (-1 / inf where missing);
+    found (Q,) bool: at least one neighbour was found (always True for exact search)."""
 
     label: Int[Array, " Q"]
     scores: Float[Array, "Q M"]
@@ -131,14 +143,21 @@ class Prediction(NamedTuple):
     euler: Float[Array, "Q 3"]
     indices: Int[Array, "Q k"]
     distances: Float[Array, "Q k"]
+    found: Bool[Array, " Q"]
+
+
+_SIGMA_MIN, _SIGMA_MAX = 2.0**-60, 2.0**62
 
 
 def fit(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"],
         orientations: Float[ArrayLike, "N 3"] | None = None, sigma: float | None = None,
         n_classes: int | None = None, max_exact: int = 10_000, seed: int = 0) -> KNNModel:
     """A kNN model. data (N, D); labels (N,) ints in [0, M); orientations (N, 3) Euler angles (radians,
-    Z-Y'-X'') or None; sigma: eq. 5 from the data when None."""
-    x = as_array(data, "data", ndim=2, dtype=np.float32)
+    Z-Y'-X'') or None; sigma: eq. 5 from the data when None, floored (with a `UserWarning`) at
+    eps_32 * max(1, max|x|) when eq. 5 gives less (0 when every class's points coincide); an explicit
+    sigma must lie in [2^-60, 2^62]. ValueError naming the argument otherwise, and for
+    |data| > 2^60 / sqrt(D)."""
+    x = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     N = x.shape[0]
     y = as_array(labels, "labels", ndim=1, dtype=np.int64, min_value=0)
     if y.shape[0] != N:
@@ -151,8 +170,15 @@ def fit(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"],
         if o.shape != (N, 3):
             raise ValueError(f"orientations: expected shape ({N}, 3) (Euler angles per data row), got {o.shape}")
         quats = np.asarray(euler_to_quat(o.astype(np.float32)))
-    s = intra_class_sigma(x, y, max_exact=max_exact, seed=seed) if sigma is None else \
-        check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
+    if sigma is None:
+        s = intra_class_sigma(x, y, max_exact=max_exact, seed=seed)
+        floor = float(np.finfo(np.float32).eps) * max(1.0, float(max(np.max(x), -np.min(x))))
+        if s < floor:
+            warnings.warn(f"sigma: eq. 5 gives {s:.3g} (same-class points coincide); floored at {floor:.3g}, "
+                          "so eq. 3 votes by the nearest neighbours", UserWarning, stacklevel=2)
+            s = floor
+    else:
+        s = check_real(sigma, "sigma", min_value=_SIGMA_MIN, max_value=_SIGMA_MAX)
     return KNNModel(jnp.asarray(x), jnp.asarray(y, jnp.int32), jnp.asarray(quats), jnp.float32(s), M)
 
 
@@ -164,12 +190,17 @@ def vote(labels: Int[ArrayLike, "Q k"], distances: Float[ArrayLike, "Q k"], quat
 
     Returns (label (Q,), scores (Q, M), quat (Q, 4)). Weights are exp(-d^2 / (2 sigma^2)); the
     orientation uses only neighbours of the winning class. A query whose neighbours all underflow
-    to weight 0 falls back to the nearest neighbour (weights computed relative to the nearest)."""
+    to weight 0 falls back to the nearest neighbour (weights computed relative to the nearest; when
+    even those exponents overflow, the nearest neighbours (ties included) vote with weight 1).
+    A query without any neighbour gets scores 0 and label 0 (`predict` marks it not found)."""
     valid = labels >= 0
     d2 = jnp.where(valid, distances, jnp.inf) ** 2
     logw = -d2 / (2.0 * sigma**2)
     w = jnp.where(valid, jnp.exp(logw), 0.0)
-    rel = jnp.where(valid, jnp.exp(logw - jnp.max(logw, axis=1, keepdims=True)), 0.0)
+    nearest = valid & (distances == jnp.min(jnp.where(valid, distances, jnp.inf), axis=1, keepdims=True))
+    # every exponent overflowed (d / sigma beyond float32): the limit of eq. 3 is the nearest-neighbour vote
+    logw_rel = jnp.where(jnp.isfinite(jnp.max(logw, axis=1, keepdims=True)), logw, jnp.where(nearest, 0.0, -jnp.inf))
+    rel = jnp.where(valid, jnp.exp(logw_rel - jnp.max(logw_rel, axis=1, keepdims=True)), 0.0)
     onehot = jax.nn.one_hot(jnp.where(valid, labels, 0), n_classes) * valid[..., None]
     scores = jnp.einsum("qk,qkm->qm", w, onehot)
     rel_scores = jnp.einsum("qk,qkm->qm", rel, onehot)  # same argmax, no underflow
@@ -183,7 +214,12 @@ def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike,
             index: LSHIndex | None = None, n_per_table: int = 64, n_tables: int | None = None,
             max_rerank: int | None = None) -> Prediction:
     """Class and orientation of each query (Q, D): neighbours from `index` (LSH, built on
-    model.data) or exact search when None, then eqs. 3-4."""
+    model.data) or exact search when None, then eqs. 3-4.
+
+    A query for which the index finds no neighbour at all is marked, not guessed: found False,
+    label -1, scores 0, quat / euler NaN (no fallback to exact search; rerun those rows with
+    index=None, or tune the index, if an answer is needed). ValueError naming the argument for
+    invalid queries, k, or n_tables * n_per_table < k (`n_per_table`)."""
     if index is not None:
         if index.data.shape != model.data.shape:
             raise ValueError(f"index: built on {index.data.shape} points, the model holds {model.data.shape}")
@@ -196,6 +232,8 @@ def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike,
     safe = jnp.maximum(idx, 0)
     labels = jnp.where(idx >= 0, model.labels[safe], -1)
     label, scores, quat = vote(labels, dist, model.quats[safe], model.sigma, model.n_classes)
+    found = idx[:, 0] >= 0  # neighbours come nearest first, the missing ones last
+    label = jnp.where(found, label, -1)
     has_orientation = jnp.any(model.quats != 0)
-    quat = jnp.where(has_orientation, quat, jnp.nan)
-    return Prediction(label, scores, quat, quat_to_euler(quat), idx, dist)
+    quat = jnp.where(has_orientation & found[:, None], quat, jnp.nan)
+    return Prediction(label, scores, quat, quat_to_euler(quat), idx, dist, found)

@@ -31,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int, Key
 
+from hog_jax._checks import check_feature_range, check_key
 from hog_jax.exact import LSHResult, check_queries, exact_search
 from lfd_common import as_array, check_int, check_real
 
@@ -89,8 +90,11 @@ def build_index(key: Key[Array, ""], data: Float[ArrayLike, "N D"], n_bits: int,
     """Build an LSH index of `data` (N, D) with `n_tables` tables of `n_bits` hyperplanes each.
 
     key: a `jax.random` key. table_bits: log2 of the hash-table size H (1..31, default 20).
+    ValueError naming the argument for a key that is not a `jax.random` key, empty or non-finite data,
+    |data| > 2^60 / sqrt(D) (squared distances would overflow float32) or parameters out of range.
     """
-    data = as_array(data, "data", ndim=2, dtype=np.float32)
+    check_key(key, "key")
+    data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     check_int(n_bits, "n_bits", min_value=1, max_value=32)
     check_int(n_tables, "n_tables", min_value=1)
     check_int(table_bits, "table_bits", min_value=1, max_value=31)
@@ -162,7 +166,9 @@ def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, "
     its points). n_tables: use only the first tables (default all). max_rerank: re-rank at most this
     many distinct candidates (R; default T C, i.e. all; when more are found, the R with the smallest
     ids are kept and n_scanned reports R); at most 4 R bucket slots are collected, in table order.
-    Returns an `LSHResult`.
+    Returns an `LSHResult`; a query whose buckets hold fewer than k points gets -1 / inf in the
+    missing places (a query with none at all: every index -1). ValueError naming the argument when
+    n_tables * n_per_table < k (the candidate slots cannot hold k neighbours: `n_per_table`).
     """
     q, single = check_queries(queries, index.data.shape[1])
     check_int(k, "k", min_value=1, max_value=index.data.shape[0])
@@ -173,10 +179,28 @@ def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, "
         index = index._replace(planes=index.planes[:n_tables], keys=index.keys[:n_tables],
                                order=index.order[:n_tables])
     slots = n_tables * n_per_table
+    _check_slots(k, n_tables, n_per_table)
     R = slots if max_rerank is None else min(slots, check_int(max_rerank, "max_rerank", min_value=k))
     chunk = max(1, min(q.shape[0], 16))
     res = _query(index, jnp.asarray(q), k, n_per_table, jnp.int32(n_tables), R, chunk)
     return LSHResult(*(a[0] for a in res)) if single else res
+
+
+def _check_slots(k: int, n_tables: int, n_per_table: int) -> None:
+    if n_tables * n_per_table < k:
+        raise ValueError(f"n_per_table: n_tables * n_per_table = {n_tables} * {n_per_table} = {n_tables * n_per_table} "
+                         f"candidate slots cannot hold k = {k} neighbours; use n_per_table >= {-(-k // n_tables)}")
+
+
+def _check_grid(grid, name: str, max_value: int | None) -> tuple[int, ...]:
+    if isinstance(grid, (str, bytes)) or not hasattr(grid, "__iter__"):
+        raise ValueError(f"{name}: expected a non-empty sequence of integers, got {grid!r}")
+    values = tuple(grid)
+    if not values:
+        raise ValueError(f"{name}: must not be empty (the grid to search)")
+    for i, v in enumerate(values):
+        check_int(v, f"{name}[{i}]", min_value=1, max_value=max_value)
+    return tuple(int(v) for v in values)
 
 
 def recall_at_k(found: Int[ArrayLike, "Q k"], truth: Int[ArrayLike, "Q k"]) -> float:
@@ -214,15 +238,24 @@ def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[Arra
 
     For each K one index with max(T grid) tables is built and the first t tables are used for each t,
     so the grid costs one build per K. `truth` (Q, k): exact neighbour ids if already known.
+    ValueError naming the argument for an empty grid, a grid entry out of range, a key that is not a
+    `jax.random` key, or min(n_tables_grid) * n_per_table < k.
     """
-    data = as_array(data, "data", ndim=2, dtype=np.float32)
-    q = as_array(queries, "queries", shape=(None, data.shape[1]), dtype=np.float32)
+    check_key(key, "key")
+    data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
+    q = check_feature_range(as_array(queries, "queries", shape=(None, data.shape[1]), dtype=np.float32), "queries")
     check_int(k, "k", min_value=1, max_value=data.shape[0])
     check_int(n_per_table, "n_per_table", min_value=1)
     check_real(target_recall, "target_recall", min_value=0.0, max_value=1.0)
-    truth = np.asarray(exact_search(data, q, k).indices if truth is None else truth)
-    if truth.shape != (q.shape[0], k):
-        raise ValueError(f"truth: expected shape {(q.shape[0], k)}, got {truth.shape}")
+    check_int(table_bits, "table_bits", min_value=1, max_value=31)
+    n_bits_grid = _check_grid(n_bits_grid, "n_bits_grid", 32)
+    n_tables_grid = _check_grid(n_tables_grid, "n_tables_grid", None)
+    _check_slots(k, min(n_tables_grid), n_per_table)
+    if truth is None:
+        truth = np.asarray(exact_search(data, q, k).indices)
+    else:
+        truth = as_array(truth, "truth", shape=(q.shape[0], k), dtype=np.int64, min_value=-1,
+                         max_value=data.shape[0] - 1)
     t_max = max(n_tables_grid)
     chunk = max(1, min(q.shape[0], 16))
     qj = jnp.asarray(q)

@@ -31,6 +31,7 @@ and that each mixture's weights sum to 1.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from functools import partial
 from pathlib import Path
 from typing import NamedTuple
@@ -41,6 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int, Key, Real
 
+from hog_jax._checks import check_key
 from lfd_common import ArraySpec, ModelCodec, as_array, check_choice, check_int, check_real, load_model, save_model
 
 __all__ = [
@@ -118,7 +120,7 @@ def _em(key, x, n_components: int, n_iter: int, reg):
     N, P = x.shape
     G = n_components
     means = x[jax.random.choice(key, N, (G,), replace=False)]
-    cov = jnp.cov(x.T).reshape(P, P) + reg * jnp.eye(P)
+    cov = jnp.cov(x.T, bias=N == 1).reshape(P, P) + reg * jnp.eye(P)  # one point: zero spread, not 0/0
     chols = jnp.broadcast_to(jnp.linalg.cholesky(cov), (G, P, P))
     gmm = GMM(jnp.full((G,), -jnp.log(G)), means, chols)
 
@@ -140,24 +142,46 @@ def _em(key, x, n_components: int, n_iter: int, reg):
 def fit_gmm(key: Key[Array, ""], x: Float[ArrayLike, "N P"], n_components: int = 4, n_iter: int = 100,
             reg: float = 1e-5) -> GMM:
     """Fit a full-covariance GMM to x (N, P) by EM (`n_iter` iterations, means initialised at random
-    data points, covariances at the data covariance, `reg` added to every covariance's diagonal)."""
-    x = as_array(x, "x", ndim=2, dtype=np.float32)
-    G = check_int(n_components, "n_components", min_value=1, max_value=x.shape[0])
+    data points, covariances at the data covariance, `reg` added to every covariance's diagonal).
+
+    `reg` is the covariance floor: a component fitted to one point, or to identical points, gets the
+    covariance reg * I (never NaN); with N <= P points (a single pixel, say) the covariance cannot be
+    estimated and a `UserWarning` says so. ValueError naming the argument for empty or non-finite x,
+    |x| > 1e12, n_components outside [1, N], n_iter < 0, reg <= 0 or a key that is not a jax.random key."""
+    check_key(key, "key")
+    x = as_array(x, "x", ndim=2, dtype=np.float32, min_value=-1e12, max_value=1e12)
+    return _fit_gmm(key, x, n_components, n_iter, reg, "x", "n_components")
+
+
+def _fit_gmm(key, x: np.ndarray, n_components, n_iter, reg, x_name: str, g_name: str) -> GMM:
+    G = check_int(n_components, g_name, min_value=1, max_value=x.shape[0])
     check_int(n_iter, "n_iter", min_value=0)
     check_real(reg, "reg", min_value=0.0, exclusive_min=True)
+    if x.shape[0] <= x.shape[1]:
+        warnings.warn(f"{x_name}: {x.shape[0]} point(s) in {x.shape[1]} dimensions cannot define a covariance; "
+                      f"it is floored at reg * I = {reg:g} * I", UserWarning, stacklevel=3)
     return _em(key, jnp.asarray(x), G, jnp.int32(n_iter), jnp.float32(reg))
 
 
 def fit_skin_model(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], background_rgb: Real[ArrayLike, "M 3"],
                    n_components: int = 4, n_background: int = 4, threshold: float = 0.0,
                    n_iter: int = 100) -> SkinModel:
-    """Fit skin and background GMMs on chroma from labelled RGB pixels (N, 3) and (M, 3) in [0, 255]."""
+    """Fit skin and background GMMs on chroma from labelled RGB pixels (N, 3) and (M, 3) in [0, 255].
+
+    Each mixture is `fit_gmm` of the pixels' chroma: from one pixel (or identical pixels) a component
+    gets the floor covariance reg * I (a `UserWarning` for N <= 2), never NaN. ValueError naming the
+    argument for pixels outside [0, 255], more components than pixels, or a key that is not a key."""
+    check_key(key, "key")
     skin = as_array(skin_rgb, "skin_rgb", shape=(None, 3), min_value=0, max_value=255)
     bg = as_array(background_rgb, "background_rgb", shape=(None, 3), min_value=0, max_value=255)
     check_real(threshold, "threshold")
+    check_int(n_components, "n_components", min_value=1, max_value=skin.shape[0])
+    check_int(n_background, "n_background", min_value=1, max_value=bg.shape[0])
     k1, k2 = jax.random.split(key)
-    return SkinModel(fit_gmm(k1, np.asarray(rgb_to_chroma(skin)), n_components, n_iter),
-                     fit_gmm(k2, np.asarray(rgb_to_chroma(bg)), n_background, n_iter),
+    return SkinModel(_fit_gmm(k1, np.asarray(rgb_to_chroma(skin)), n_components, n_iter, 1e-5, "skin_rgb",
+                              "n_components"),
+                     _fit_gmm(k2, np.asarray(rgb_to_chroma(bg)), n_background, n_iter, 1e-5, "background_rgb",
+                              "n_background"),
                      jnp.float32(threshold))
 
 

@@ -1,5 +1,5 @@
 """What every lfd-jax library shares, once: input validation, padded batches, log-space numerics,
-model persistence and JAX set-up.
+rotations (quaternions (w, x, y, z), intrinsic Z-Y'-X'' Euler angles), model persistence and JAX set-up.
 
 The libraries (`phmm_jax`, `hog_jax`, `crf_jax`, `sim`) never import `experiments` or each other for
 plumbing, so the little they share lives here.

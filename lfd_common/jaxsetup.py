@@ -8,6 +8,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import jax
+
 _CACHE_ENV = "LFD_JAX_CACHE"
 
 
@@ -29,8 +31,6 @@ def enable_compilation_cache(min_compile_time_s: float = 0.2) -> Path:
     Programs that take longer than `min_compile_time_s` to compile are written to disk and reused
     by later processes with the same JAX version, backend and program.
     """
-    import jax
-
     path = cache_dir("jax")
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", float(min_compile_time_s))

@@ -35,6 +35,14 @@ Retargeting to a robot arm (Humanoids 2008 §IV-B, eqs. 10-24)
 
 Persistence
     save(path, model), load(path)   structure as JSON + arrays, checked against each other on load
+
+Errors and edge cases
+    Every public function raises `ValueError` whose message starts with the argument's name for a
+    wrong type, shape or value (NaN/inf, lengths no path fits, n_steps < 1, learning_rate <= 0, an
+    empty or non-tuple grid_shape) and for finite values that would overflow the compute dtype
+    inside (data ~1e20 from the means in float32, φ = 1e30, epsilon = 1e30). Fits never return NaN:
+    `reg_covar` floors every variance (default 1e-4); with reg_covar=0 a singular covariance raises
+    naming `reg_covar`; a state without responsibility keeps its Gaussian (RuntimeWarning).
 """
 from phmm_jax.api import Messages, Posteriors, log_likelihood, messages, posteriors, viterbi
 from phmm_jax.em import fit_hmm

@@ -15,6 +15,7 @@ from jaxtyping import Array, Float, Int
 
 from lfd_common import pad_sequences
 from phmm_jax import inference
+from phmm_jax.checks import check_distances, check_type, max_whitened_distances, model_bounds
 from phmm_jax.data import check_feasible, to_device
 from phmm_jax.emissions import gaussian_log_density_columns
 from phmm_jax.model import HMM, reachable_states
@@ -52,9 +53,16 @@ def emission_columns(hmm: HMM, X: Float[Array, "B T D"], all_states: bool = Fals
 
 
 def checked_batch(hmm: HMM, X, lengths):
-    """User sequences (see `api.log_likelihood`) -> checked, padded device arrays (X, lengths)."""
+    """User sequences (see `api.log_likelihood`) -> checked, padded device arrays (X, lengths).
+
+    Also rejects a model that is not an `HMM` or whose covariances are not positive definite, and
+    data whose log-likelihood under it would overflow the compute dtype (`checks.check_distances`).
+    """
+    check_type(hmm, "hmm", HMM)
     X, lengths = pad_sequences(X, lengths, dim=hmm.dim)
     check_feasible(hmm.config, lengths)
+    check_distances(X, lengths, *model_bounds(hmm),
+                    exact=lambda: max_whitened_distances(X, hmm.means, hmm.covariances))
     return to_device(X, lengths)
 
 

@@ -20,6 +20,7 @@ from jaxtyping import Array, Float
 from lfd_common import pad_sequences
 from phmm_jax import inference
 from phmm_jax._batched import emission_columns
+from phmm_jax.checks import check_fit_scale, check_fitted, check_hmm, check_type
 from phmm_jax.data import Lengths, Sequences, check_feasible, to_device
 from phmm_jax.model import HMM, HMMConfig, transitions_from_counts
 from phmm_jax.options import FitOptions, check_options
@@ -111,7 +112,8 @@ def run_em(hmm: HMM, X, lengths, weights, options: FitOptions, max_iter: int,
     """Iterate `step` at most `max_iter` times, until the mean per-frame log-likelihood improves by
     less than `options.tol`; the M step uses `options.reg_covar` and `options.duration_pseudocount`.
 
-    Returns (HMM, history of mean per-frame log-likelihoods). Warns if a state was starved.
+    Returns (HMM, history of mean per-frame log-likelihoods). Warns if a state was starved; stops
+    early once the log-likelihood is not finite (the caller's `check_fit_result` then reports it).
     `step` may be a vmapped `em_step` (several models at once): convergence then needs all of them.
     """
     history = []
@@ -123,6 +125,8 @@ def run_em(hmm: HMM, X, lengths, weights, options: FitOptions, max_iter: int,
         mean_ll = np.asarray(mean_ll)
         starved_total += int(np.sum(starved))
         history.append(mean_ll)
+        if not np.all(np.isfinite(mean_ll)):
+            break
         if len(history) > 1 and np.all(np.abs(history[-1] - history[-2]) < options.tol):
             break
     if starved_total:
@@ -132,15 +136,39 @@ def run_em(hmm: HMM, X, lengths, weights, options: FitOptions, max_iter: int,
     return hmm, np.stack(history) if history else np.zeros((0,))
 
 
+def check_fit_result(hmm: HMM, X, options: FitOptions, name: str = "X") -> None:
+    """`ValueError` instead of a NaN or singular fitted model (`checks.check_fitted`): naming
+    `reg_covar` when reg_covar = 0 left a singular covariance, else `name` (the data)."""
+    scale = None
+    if options.reg_covar == 0:
+        X = np.asarray(X)
+        scale = np.max(np.abs(X), axis=tuple(range(X.ndim - 1)))
+    check_fitted(hmm, options.reg_covar, scale, name)
+
+
 def prepare_fit(X, lengths, config: HMMConfig, init: HMM | None, options: FitOptions):
-    """The common start of every HMM fit: check `options` and the sequences, pad them to device
-    arrays, and return (X, lengths, weights (B,) of ones, the starting HMM: `init`, or the equal
-    segmentation in time of `config` when None)."""
+    """The common start of every HMM fit: check `options`, `config` / `init` and the sequences, pad
+    them to device arrays, and return (X, lengths, weights (B,) of ones, the starting HMM: `init`,
+    or the equal segmentation in time of `config` when None).
+
+    Raises `ValueError` naming the argument for a wrong type, an invalid `init` (`checks.check_hmm`),
+    or data whose covariance estimates would overflow the compute dtype (`checks.check_fit_scale`).
+    """
     check_options(options)
     if init is not None:
+        check_type(init, "init", HMM, "a phmm_jax.HMM or None")
+        if np.ndim(init.means) != 2:
+            raise ValueError(f"init: expected one HMM (means (N, D)), got means of shape {np.shape(init.means)}")
+        try:
+            check_hmm(init)
+        except ValueError as err:
+            raise ValueError(f"init: {err}") from err
         config = init.config
+    else:
+        check_type(config, "config", HMMConfig)
     X, lengths = pad_sequences(X, lengths, dim=None if init is None else init.dim)
     check_feasible(config, lengths)
+    check_fit_scale(X, lengths)
     X, lengths = to_device(X, lengths)
     weights = jnp.ones(X.shape[0], X.dtype)
     if init is None:
@@ -160,7 +188,13 @@ def fit_hmm(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig
     init: start from this HMM (its config is used) instead of an equal segmentation in time.
     options: `FitOptions` (max_iter, tol, reg_covar, duration_pseudocount, freeze_means_after).
     Returns the fitted `HMM` (and the I per-iteration mean log-likelihoods per frame if asked).
+
+    Never returns a NaN model: `reg_covar=0` (pure maximum likelihood) is accepted, but when it
+    leaves a covariance singular (a constant feature, collinear features, a state of at most D
+    frames) the fit raises `ValueError` naming `reg_covar`; data whose second moments overflow the
+    compute dtype (e.g. values of 1e20 in float32) raise `ValueError` naming `X` before fitting.
     """
     X, lengths, weights, hmm = prepare_fit(X, lengths, config, init, options)
     hmm, history = run_em(hmm, X, lengths, weights, options, options.max_iter, options.freeze_means_after)
+    check_fit_result(hmm, X, options)
     return (hmm, jnp.asarray(history)) if return_history else hmm

@@ -13,15 +13,19 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from jaxtyping import Array, Float
 
 from phmm_jax import inference
 from phmm_jax._batched import emission_columns
 from phmm_jax.data import Lengths, Sequences
-from phmm_jax.em import prepare_fit
+from phmm_jax.em import check_fit_result, prepare_fit
 from phmm_jax.model import HMM, HMMConfig, allowed_transitions, duration_log_probs, transitions_from_durations
 from phmm_jax.options import FitOptions
+
+# `to_unconstrained` factors Σ - 0.999·reg_covar·I: an initial covariance must exceed this share of the floor.
+_INIT_FLOOR = 0.9995
 
 
 class Unconstrained(NamedTuple):
@@ -70,6 +74,12 @@ def from_unconstrained(config: HMMConfig, params: Unconstrained, reg_covar) -> H
     return HMM(params.means, covariances, log_cont, log_exit, config)
 
 
+# One jitted program each for the conversions at the ends of a fit (op-by-op they are ~50 small
+# compilations on a process's first fit).
+_to_unconstrained = jax.jit(to_unconstrained)
+_from_unconstrained = jax.jit(from_unconstrained, static_argnums=0)
+
+
 def mean_negative_loglik(params: Unconstrained, config: HMMConfig, X, lengths, reg_covar):
     """Negative log-likelihood per frame of the padded batch (the objective)."""
     hmm = from_unconstrained(config, params, reg_covar)
@@ -111,10 +121,18 @@ def fit_hmm_gradient(X: Sequences, lengths: Lengths = None, config: HMMConfig = 
 
     options: `FitOptions` (optimizer, default optax L-BFGS; gradient_steps; reg_covar, and
     duration_pseudocount for the start). Returns the HMM (and the objective at each of the S steps).
+    Raises `ValueError` as `fit_hmm` does, and naming `init` when its covariances do not exceed
+    `reg_covar` (the parametrisation Σ = L Lᵀ + reg_covar·I cannot represent them).
     """
-    X, lengths, _, init = prepare_fit(X, lengths, config, init, options)
-    config = init.config
-    params, values = _minimise(to_unconstrained(init, options.reg_covar), config, X, lengths, options.reg_covar,
+    X, lengths, _, start = prepare_fit(X, lengths, config, init, options)
+    if init is not None:
+        low = float(np.min(np.linalg.eigvalsh(np.asarray(init.covariances, np.float64))))
+        if low <= _INIT_FLOOR * options.reg_covar:
+            raise ValueError(f"init: covariance eigenvalues must exceed reg_covar={options.reg_covar:g} "
+                             f"(Σ = L Lᵀ + reg_covar·I), got {low:.3g}")
+    config = start.config
+    params, values = _minimise(_to_unconstrained(start, options.reg_covar), config, X, lengths, options.reg_covar,
                                options.gradient_steps, options.optimizer)
-    hmm = from_unconstrained(config, params, options.reg_covar)
+    hmm = _from_unconstrained(config, params, options.reg_covar)
+    check_fit_result(hmm, X, options)
     return (hmm, values) if return_history else hmm

@@ -227,6 +227,8 @@ class DenseHMM(NamedTuple):
 
 def expand_to_dense(hmm: HMM) -> DenseHMM:
     """The equivalent ordinary HMM over pseudo-states (index s = i·P + j), as float64 numpy arrays."""
+    if not isinstance(hmm, HMM) or np.ndim(hmm.log_cont) != 2:
+        raise ValueError(f"hmm: expected one phmm_jax.HMM, got {type(hmm).__name__}")
     log_cont = np.asarray(hmm.log_cont, np.float64)
     log_exit = np.asarray(hmm.log_exit, np.float64)
     n_states, n_pseudo = log_cont.shape

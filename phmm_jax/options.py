@@ -26,7 +26,9 @@ class FitOptions:
     max_iter: EM iterations at most (`fit_hmm`; the global EM of `fit_phmm`).
     tol: EM stops once the mean log-likelihood per frame improves by less than `tol` (nats).
     reg_covar: added to every covariance diagonal (a floor, in squared data units), by EM and by the
-        gradient fit's parametrisation alike.
+        gradient fit's parametrisation alike. 0 (pure maximum likelihood) is accepted, but a fit
+        that then leaves a covariance singular (a constant feature, collinear features, a state of
+        at most D frames) raises `ValueError` naming `reg_covar` rather than return a NaN model.
     duration_pseudocount: Dirichlet pseudo-count added to every *allowed* continue/exit count in the
         M step, so that a duration unseen in training stays possible (0: pure maximum likelihood).
     freeze_means_after: `fit_hmm` keeps the means fixed after this many iterations (None: never;

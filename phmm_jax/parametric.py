@@ -24,8 +24,10 @@ from jaxtyping import Array, ArrayLike, Float, Int
 from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log
 from phmm_jax import inference
 from phmm_jax._batched import emission_columns
+from phmm_jax.checks import (check_distances, check_fit_scale, check_grid_shape, check_type, covariance_range,
+                             extrapolation_factor, mean_norm)
 from phmm_jax.data import Lengths, Sequences, check_feasible, stack_groups, to_device
-from phmm_jax.em import em_step, initial_hmm, run_em
+from phmm_jax.em import check_fit_result, em_step, initial_hmm, run_em
 from phmm_jax.emissions import stacked_log_density_columns
 from phmm_jax.model import HMM, HMMConfig, duration_log_probs, transitions_from_durations
 from phmm_jax.options import FitOptions, check_options
@@ -61,6 +63,7 @@ class PHMM:
 
 def grid_points(grid_shape: tuple[int, ...]) -> Float[np.ndarray, "C d"]:
     """Parameter values φ (C, d) of the corners of a regular grid over [0, 1]^d, in C order."""
+    grid_shape = check_grid_shape(grid_shape)
     axes = [np.linspace(0.0, 1.0, g) for g in grid_shape]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(grid_shape))
 
@@ -114,6 +117,20 @@ def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
     return inference.forward_loglik(inference.stacked_chain(hmms), log_b, lengths)
 
 
+def check_phmm_distances(phmm: PHMM, X: np.ndarray, lengths: np.ndarray, factor: float, model_name: str,
+                         far_name: str) -> None:
+    """`checks.check_distances` for every λ^φ with φ in [0, 1]^d (naming `X` or `model_name`), then
+    with the means extrapolated by `factor` (`checks.extrapolation_factor`, naming `far_name`).
+    The interpolated covariances mix the corners' (φ clipped), so their smallest eigenvalue is at
+    least the corners' smallest."""
+    mean_bound = mean_norm(phmm.local.means, model_name)
+    low, _ = covariance_range(phmm.local.covariances, model_name)
+    grid = max(phmm.grid_shape)
+    check_distances(X, lengths, mean_bound, low, model_name=model_name, differentiable=True, grid=grid)
+    if factor > 1.0:
+        check_distances(X, lengths, factor * mean_bound, low, differentiable=True, grid=grid, blame=far_name)
+
+
 def _check_phi(phmm: PHMM, phi, batch: int):
     phi = as_array(phi, "phi", ndim=(1, 2))
     if phi.shape[-1] != phmm.n_params:
@@ -127,10 +144,15 @@ def _check_phi(phmm: PHMM, phi, batch: int):
 def phmm_log_likelihood(phmm: PHMM, X: Sequences, phi: Float[ArrayLike, "B d"] | Float[ArrayLike, " d"],
                         lengths: Lengths = None) -> Float[Array, " B"]:
     """log p(x | λ^φ) per sequence (B,). φ: (d,) for all sequences or (B, d). Differentiable in φ
-    through `batch_phmm_log_likelihood`."""
+    through `batch_phmm_log_likelihood`.
+
+    φ may leave [0, 1]^d (the means extrapolate), but not so far that the log-likelihood or its
+    gradient overflows the compute dtype (φ = 1e30): that raises `ValueError` naming `phi`."""
+    check_type(phmm, "phmm", PHMM)
     X, lengths = pad_sequences(X, lengths, dim=phmm.local.dim)
     check_feasible(phmm.config, lengths)
     phi = _check_phi(phmm, phi, X.shape[0])
+    check_phmm_distances(phmm, X, lengths, extrapolation_factor(phmm.grid_shape, phi), "phmm", "phi")
     X, lengths = to_device(X, lengths)
     return batch_phmm_log_likelihood(phmm, X, lengths, jnp.asarray(phi, X.dtype))
 
@@ -145,26 +167,38 @@ def fit_phmm(groups: Sequence[Sequences], grid_shape: tuple[int, ...], config: H
     from it and runs EM on its own sequences (`options.local_max_iter`, default `max_iter`) with the
     means fixed after the first iteration (eq. 2), so corresponding states of all local HMMs model
     the same part of the movement. The local EMs run as one vmap.
+    grid_shape: a non-empty tuple (or list) of grid sizes >= 2. Raises `ValueError` naming the
+    argument for wrong types and, as `fit_hmm` does, instead of returning a NaN or singular model.
     """
     options = check_options(options)
-    grid_shape = tuple(check_int(g, "grid_shape", min_value=2) for g in grid_shape)
+    grid_shape = check_grid_shape(grid_shape)
+    check_type(config, "config", HMMConfig)
+    if isinstance(groups, (str, bytes)) or not hasattr(groups, "__len__"):
+        raise ValueError(f"groups: expected a sequence of groups of sequences (one per grid corner), "
+                         f"got {type(groups).__name__}")
     n_corners = int(np.prod(grid_shape))
     if len(groups) != n_corners:
         raise ValueError(f"groups: a {'x'.join(map(str, grid_shape))} grid needs {n_corners} groups of "
                          f"sequences (one per corner), got {len(groups)}")
     for k, group in enumerate(groups):
+        if isinstance(group, (str, bytes)) or not hasattr(group, "__len__"):
+            raise ValueError(f"groups[{k}]: expected a list of sequences or a (B, T, D) array, "
+                             f"got {type(group).__name__}")
         if len(group) == 0:
             raise ValueError(f"groups[{k}]: the grid corner {np.unravel_index(k, grid_shape)} has no sequences")
     X, lengths, weights = stack_groups(groups, None, "groups")
     check_feasible(config, lengths.ravel())
+    check_fit_scale(X, lengths, "groups")
     X = jnp.asarray(X, float_dtype())
     lengths, weights = jnp.asarray(lengths), jnp.asarray(weights, X.dtype)
     flat = (X.reshape(-1, *X.shape[2:]), lengths.ravel(), weights.ravel())
     global_hmm = initial_hmm(config, *flat, options.reg_covar, options.duration_pseudocount)
     global_hmm, _ = run_em(global_hmm, *flat, options, options.max_iter)
+    check_fit_result(global_hmm, flat[0], options, "groups")
     start = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n_corners,) + a.shape), global_hmm)
     local_max_iter = options.max_iter if options.local_max_iter is None else options.local_max_iter
     local, _ = run_em(start, X, lengths, weights, options, local_max_iter, freeze_means_after=1, step=_local_em_step)
+    check_fit_result(local, X, options, "groups")
     return PHMM(local, grid_shape)
 
 
@@ -238,18 +272,31 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
     Defaults: a lattice point scores all sequences under one model (cheap), a gradient step needs one
     model per sequence (dear), so the start is a fine 5^d lattice and the ascent short (20 steps);
     how close that comes to a long search is measured by `experiments.bench.bench_hmm`.
+    Raises `ValueError` naming the argument for anything else: n_steps < 1, a learning rate that is
+    not a positive finite number, a negative epsilon, models that are not PHMMs, and data (or an
+    epsilon) so far from a model's means that the search would overflow the compute dtype.
     """
-    phmms = [phmms] if isinstance(phmms, PHMM) else list(phmms)
+    if isinstance(phmms, PHMM):
+        phmms = [phmms]
+    elif isinstance(phmms, (list, tuple)):
+        phmms = list(phmms)
+    else:
+        raise ValueError(f"phmms: expected a PHMM or a sequence of PHMMs, got {type(phmms).__name__}")
     if not phmms:
         raise ValueError("phmms: need at least one PHMM")
+    for k, phmm in enumerate(phmms):
+        check_type(phmm, f"phmms[{k}]", PHMM)
     epsilon = check_real(epsilon, "epsilon", min_value=0.0)
-    check_int(n_steps, "n_steps", min_value=0)
-    check_int(lattice_points, "lattice_points", min_value=1)
+    n_steps = check_int(n_steps, "n_steps", min_value=1)
+    learning_rate = check_real(learning_rate, "learning_rate", min_value=0.0, exclusive_min=True)
+    lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
     X, lengths = pad_sequences(X, lengths, dim=phmms[0].local.dim)
     for k, phmm in enumerate(phmms):
         if phmm.local.dim != X.shape[-1] or phmm.n_params != phmms[0].n_params:
             raise ValueError(f"phmms[{k}]: differs in feature dimension or parameter count from phmms[0]")
         check_feasible(phmm.config, lengths)
+        reach = extrapolation_factor(phmm.grid_shape, np.full((1, phmm.n_params), -epsilon))
+        check_phmm_distances(phmm, X, lengths, reach, f"phmms[{k}]", "epsilon")
     X, lengths = to_device(X, lengths)
     # A grid of 2 points per parameter is its own outermost-corner model: nothing to refine.
     results = [_search(p, p.outer(), X, lengths, epsilon, learning_rate, n_steps, lattice_points,

@@ -14,6 +14,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from lfd_common import as_array, check_int, float_dtype
+from phmm_jax.checks import HEADROOM, check_type, extrapolation_factor, mean_norm
 from phmm_jax.model import expected_durations
 from phmm_jax.parametric import PHMM, interpolate
 
@@ -39,6 +40,8 @@ def hermite_spline(knot_times, knots, query_times):
 @partial(jax.jit, static_argnames=("length",))
 def _synthesize(phmm: PHMM, phi, length: int):
     hmm = interpolate(phmm, phi)
+    if hmm.means.shape[0] == 1:  # one state: the mean movement stays at its mean
+        return jnp.broadcast_to(hmm.means[0], (length, hmm.means.shape[1]))
     durations = expected_durations(hmm)
     centres = jnp.cumsum(durations) - 0.5 * durations
     query = jnp.linspace(centres[0], centres[-1], length)
@@ -50,12 +53,20 @@ def synthesize(phmm: PHMM, phi: Float[ArrayLike, " d"] | Float[ArrayLike, "M d"]
     """The mean movement (length, D) for parameter φ (d,), or a batch (M, length, D) for φ (M, d).
 
     The interpolated state means are placed at the centres of the expected state durations and
-    joined by a C¹ spline sampled at `length` equally spaced times from the first centre to the last.
+    joined by a C¹ spline sampled at `length` equally spaced times from the first centre to the last
+    (a one-state model gives its mean at every sample). φ may leave [0, 1]^d (the means
+    extrapolate), but not so far that they overflow the compute dtype (`ValueError` naming `phi`).
     """
-    check_int(length, "length", min_value=2)
+    check_type(phmm, "phmm", PHMM)
+    length = check_int(length, "length", min_value=2)
     phi = as_array(phi, "phi", ndim=(1, 2))
     if phi.shape[-1] != phmm.n_params:
         raise ValueError(f"phi: expected {phmm.n_params} parameter(s), got shape {phi.shape}")
+    extrapolated = extrapolation_factor(phmm.grid_shape, phi) * mean_norm(phmm.local.means, "phmm")
+    limit = float(np.finfo(float_dtype()).max)
+    if extrapolated > HEADROOM * limit:
+        raise ValueError(f"phi: values up to {np.max(np.abs(phi)):.3g} extrapolate the means to |mean| up to "
+                         f"{extrapolated:.3g}, beyond {np.dtype(float_dtype()).name} (max {limit:.3g})")
     phi = jnp.asarray(phi, phmm.local.means.dtype)
     if phi.ndim == 1:
         return _synthesize(phmm, phi, length)

@@ -305,3 +305,64 @@ def test_traced_options_do_not_recompile_and_any_optax_optimizer_works():
     model, info = crf_jax.minimize(_quadratic, jnp.zeros(3), target, options=sgd)
     np.testing.assert_allclose(model, target, atol=1e-4)
     assert bool(info.converged)
+
+
+# ----------------------------------------------------------------------------------------------
+# issue 17, case 16: large features
+# ----------------------------------------------------------------------------------------------
+def test_issue17_case16_marginals_sum_to_one_for_large_features():
+    """float32 cancellation in exp(alpha + beta - log Z) made rows sum to 1.016 at 1e4 and 1.63 at 1e6."""
+    rng = np.random.default_rng(17)
+    model = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), _random_model(17, connectivity=1))
+    X = rng.normal(size=(3, 8, 4))
+    lengths = np.array([8, 5, 1])
+    real = (np.arange(8)[None] < lengths[:, None]).astype(float)
+    for scale in (1e4, 1e6, 1e20):
+        marg = np.asarray(crf_jax.predict_marginals(model, X * scale, lengths), np.float64)
+        assert np.all(np.isfinite(marg)) and np.all(marg >= 0) and np.all(marg <= 1 + 1e-6)
+        np.testing.assert_allclose(marg.sum(-1), real, atol=1e-5)
+        with jax.enable_x64(True):  # the float64 reference of the same model
+            ref = np.asarray(crf_jax.predict_marginals(jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float64),
+                                                                              model), X * scale, lengths))
+        np.testing.assert_allclose(marg, ref, atol=1e-3)
+        lp = np.asarray(crf_jax.segment_log_probs(model, X * scale, lengths))
+        assert np.all(np.isfinite(lp)) and np.all(lp <= 0)
+
+
+def test_issue17_case16_overflow_is_rejected_and_a_non_finite_objective_never_converges():
+    rng = np.random.default_rng(16)
+    X, y = _toy_data(rng, 4, t=6)
+    huge = X.astype(np.float64) / np.abs(X).max() * 1e39  # finite in float64, not in float32
+    # rejected by name, not fitted to zero weights with converged=True / predicted as label 0
+    with pytest.raises(ValueError, match="X: values up to 1e\\+39 overflow float32"):
+        crf_jax.fit_chain(huge, y, n_labels=3)
+    model = crf_jax.init_chain(3, 3, key=jax.random.PRNGKey(0), scale=1.0)
+    with pytest.raises(ValueError, match="X: values up to"):
+        crf_jax.predict(model, huge)
+    with pytest.raises(ValueError, match="X: values up to"):
+        crf_jax.predict_marginals(model, huge)
+    # finite in float32, but the gradient at the start overflows: a named error, not converged=True
+    with pytest.raises(ValueError, match="X: the fit_chain objective or its gradient is not finite"):
+        crf_jax.fit_chain(np.full(X.shape, 3e38), np.zeros_like(y), n_labels=3,
+                          options=crf_jax.FitOptions(max_iter=5))
+    with pytest.raises(ValueError, match="init: contains NaN"):
+        crf_jax.fit_chain(X, y, n_labels=3, init=model._replace(bias=jnp.full(3, jnp.nan)))
+    # an objective that turns NaN mid-way: stopped at the last finite point, diverged, never converged
+    res = crf_jax.minimize(_nan_beyond_one, jnp.zeros(2), jnp.full(2, 3.0),
+                           options=crf_jax.FitOptions(method="adam", learning_rate=0.3, max_iter=50))
+    assert bool(res.info.diverged) and not bool(res.info.converged)
+    assert np.all(np.isfinite(np.asarray(res.model))) and np.all(np.asarray(res.model) <= 1.0)
+    n = int(res.info.n_iter)
+    assert 0 < n < 50 and np.all(np.isfinite(np.asarray(res.info.loss)[:n]))
+    # ... and a NaN start does not iterate at all
+    res = crf_jax.minimize(_nan_beyond_one, jnp.full(2, 2.0), jnp.full(2, 3.0),
+                           options=crf_jax.FitOptions(method="adam", max_iter=50))
+    assert bool(res.info.diverged) and not bool(res.info.converged) and int(res.info.n_iter) == 0
+    # a normal fit is not diverged
+    _, info = crf_jax.fit_chain(X, y, n_labels=3, options=crf_jax.FitOptions(max_iter=5))
+    assert not bool(info.diverged)
+
+
+def _nan_beyond_one(params, target):
+    """(params - target)^2, NaN once any parameter exceeds 1."""
+    return jnp.where(jnp.all(params <= 1.0), jnp.sum(jnp.square(params - target)), jnp.nan)

@@ -249,3 +249,41 @@ def test_linear_baselines(kind):
         np.testing.assert_allclose(np.exp(lp).sum(1), 1.0, rtol=1e-5)
     with pytest.raises(ValueError, match="X"):
         crf_jax.linear_predict(model, X[:, :1])
+
+
+# ----------------------------------------------------------------------------------------------
+# issue 17, cases 17-18: fusion without mass, co-occurrence from smoothing alone
+# ----------------------------------------------------------------------------------------------
+def test_issue17_case17_fuse_without_any_mass_is_flagged_not_nan():
+    res = crf_jax.fuse([[0.0, -np.inf]], [[0.0, -np.inf]], [[0.0, 1.0], [1.0, 1.0]])
+    for field in ("log_joint", "log_z", "log_action", "log_object"):
+        value = np.asarray(getattr(res, field))
+        assert not np.any(np.isnan(value)) and np.all(value == -np.inf), field
+    np.testing.assert_array_equal(res.impossible, [True])
+    # a batch mixing an impossible row with possible ones: only that row is flagged; the others are
+    # distributions, also for large unnormalised scores (shifted before the sum)
+    la = np.array([[0.0, -np.inf], [-1.0, -2.0], [3e38, 3e38]])
+    lo = np.array([[0.0, -np.inf], [-0.5, -np.inf], [1e38, -1e38]])
+    res = crf_jax.fuse(la, lo, [[0.0, 1.0], [1.0, 1.0]])
+    np.testing.assert_array_equal(res.impossible, [True, False, False])
+    joint = np.asarray(res.log_joint, np.float64)
+    assert not np.any(np.isnan(joint))
+    np.testing.assert_allclose(np.exp(joint[1:]).sum(axis=(1, 2)), 1.0, rtol=1e-6)
+    np.testing.assert_allclose(np.exp(joint[1]), [[0, 0], [1, 0]], atol=1e-7)  # only (1, 0) has mass
+    np.testing.assert_allclose(res.log_z[1], -2.5, rtol=1e-6)
+    with pytest.raises(ValueError, match="log_p_action: contains NaN or \\+inf"):
+        crf_jax.fuse([[np.nan, 0.0]], [[0.0, 0.0]], np.ones((2, 2)))
+    with pytest.raises(ValueError, match="log_p_object: values up to 1e\\+39 overflow"):
+        crf_jax.fuse([[0.0, 0.0]], [[1e39, 0.0]], np.ones((2, 2)))
+    with pytest.raises(ValueError, match="log_joint: every"):
+        crf_jax.apply_history(np.full((2, 2), -np.inf), np.ones((2, 2)))
+
+
+def test_issue17_case18_cooccurrence_from_smoothing_alone():
+    K = crf_jax.cooccurrence([], [], 3, 2, smoothing=1.0)
+    chex.assert_shape(K, (3, 2))
+    np.testing.assert_allclose(K, np.full((3, 2), 1 / 6), rtol=1e-6)
+    with pytest.raises(ValueError, match="actions: no training pairs and smoothing=0"):
+        crf_jax.cooccurrence([], [], 3, 2)
+    with pytest.raises(ValueError, match="objects: expected 0 labels"):
+        crf_jax.cooccurrence([], [1], 3, 2, smoothing=1.0)

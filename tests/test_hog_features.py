@@ -207,3 +207,27 @@ def test_bad_mask_and_config():
         hog(img, HOGConfig(binning="bilinear"))
     with pytest.raises(ValueError, match="config.n_bins"):
         hog(img, HOGConfig(n_bins=0))
+
+
+# ------------------------------------------------------------------ issue 17: bad input, edge cases
+def test_issue17_case10_huge_and_tiny_images_give_the_unit_scale_features():
+    """Values 1e20 (finite in float32) made gx*gx overflow (81 of 84 features NaN). Images outside
+    [2^-40, 2^60] are rescaled by an exact power of two: the features are those of the unit-scale image."""
+    import jax.numpy as jnp
+    img = np.random.default_rng(0).uniform(0, 1, (2, 24, 24)).astype(np.float32)
+    for cfg in (HOGConfig(), HOGConfig(normalize="cell", binning="soft"), HOGConfig(weighting="count")):
+        ref = np.asarray(hog(img, cfg))
+        for scale in (2.0**70, 2.0**-70, 2.0**120):  # powers of two: bit-identical features
+            np.testing.assert_array_equal(np.asarray(hog(img * np.float32(scale), cfg)), ref)
+        for scale in (1e20, 3e37, 1e-30):  # rounding of the product only
+            got = np.asarray(hog((img * scale).astype(np.float32), cfg))
+            assert np.isfinite(got).all()
+            np.testing.assert_allclose(got, ref, rtol=1e-4, atol=1e-6)
+        np.testing.assert_array_equal(np.asarray(hog(jnp.asarray(img * np.float32(2.0**70)), cfg)), ref)
+    raw = HOGConfig(normalize="none")
+    np.testing.assert_array_equal(np.asarray(hog(img * np.float32(2.0**70), raw)),
+                                  np.asarray(hog(img, raw)) * np.float32(2.0**70))  # raw sums scale back
+    with pytest.raises(ValueError, match="images: the raw .* overflow float32"):
+        hog(img * np.float32(1e38), raw)
+    with pytest.raises(ValueError, match="images: image 0 has values up to 1e\\+39, beyond float32"):
+        hog(np.full((16, 16), 1e39))

@@ -165,3 +165,73 @@ def test_bad_input():
         exact_search(np.zeros((0, 4)), data, 1)
     with pytest.raises(ValueError, match="labels: every class has a single point"):
         intra_class_sigma(data[:2], np.array([0, 1]))
+
+
+# ------------------------------------------------------------------ issue 17: bad input, edge cases
+@pytest.mark.parametrize("offset", [0.0, 0.25])
+def test_issue17_case11_identical_features_floor_sigma(offset):
+    """All-zero (or identical per class) features: eq. 5 gives sigma = 0 and predict divided by it
+    (NaN scores and Euler angles, label 0). sigma is floored with a warning; eq. 3 becomes the
+    nearest-neighbour vote."""
+    data = np.repeat(np.array([[0.0, 0.0, 0.0], [offset, 0.0, 0.0]]), 3, axis=0)  # offset 0: all zero
+    labels = np.array([0, 0, 0, 1, 1, 1])
+    ori = np.radians(np.repeat([[10.0, 0, 0], [80.0, 0, 0]], 3, axis=0))
+    with pytest.warns(UserWarning, match="sigma: eq. 5 gives 0"):
+        model = fit(data, labels, ori)
+    assert 0 < float(model.sigma) <= 1e-6
+    q = np.array([[0.0, 0.0, 0.0], [offset, 0.0, 0.0], [0.2, 0.3, 0.0], [1e15, 0.0, 0.0]])  # last: exp(-inf)
+    pred = predict(model, q, k=4)
+    for a in (pred.scores, pred.quat, pred.euler):
+        assert np.isfinite(np.asarray(a)).all()
+    assert set(np.asarray(pred.label).tolist()) <= {0, 1} and np.asarray(pred.found).all()
+    if offset:
+        assert np.asarray(pred.label)[:3].tolist() == [0, 1, 1]  # the nearest class wins
+        np.testing.assert_allclose(np.degrees(np.asarray(pred.euler[:2, 0])), [10.0, 80.0], atol=1e-3)
+    with pytest.raises(ValueError, match="sigma: must be >="):
+        fit(data, labels, sigma=1e-30)  # sigma^2 would underflow float32
+
+
+def test_issue17_case12_exact_search_range():
+    """Values 1e20 made the expanded squared distances overflow (wrong neighbours). Features beyond
+    2^60 / sqrt(D) are rejected naming the argument; up to that bound the neighbours are exact."""
+    from hog_jax._checks import feature_limit
+    rng = np.random.default_rng(6)
+    data = rng.normal(size=(200, 8))
+    q = rng.normal(size=(9, 8))
+    with pytest.raises(ValueError, match="data: values up to .* exceed the supported range"):
+        exact_search(data * 1e20, q, 3)
+    with pytest.raises(ValueError, match="queries: values up to .* exceed the supported range"):
+        exact_search(data, q * 1e20, 3)
+    with pytest.raises(ValueError, match="data: values up to"):
+        fit(data * 1e20, np.arange(200) % 2)
+    scale = 0.99 * feature_limit(8) / max(np.abs(data).max(), np.abs(q).max())
+    res = exact_search(data * scale, q * scale, 5)
+    idx, d = brute_knn(data, q, 5)
+    np.testing.assert_array_equal(np.asarray(res.indices), idx)
+    np.testing.assert_allclose(np.asarray(res.distances), d * scale, rtol=1e-5)
+    model = fit(data * scale, np.arange(200) % 2)
+    pred = predict(model, q * scale, k=5)
+    assert np.isfinite(np.asarray(pred.scores)).all() and np.all(np.asarray(pred.label) >= 0)
+
+
+def test_issue17_case14_no_neighbour_found_is_flagged():
+    """An index that finds no neighbour for a query gave label 0, scores 0 and the identity
+    orientation. Now: found False, label -1, scores 0, NaN orientation; exact search finds all."""
+    from hog_jax import build_index
+    rng = np.random.default_rng(7)
+    data = rng.normal(size=(40, 6)).astype(np.float32)
+    labels = np.arange(40) % 3
+    model = fit(data, labels, rng.uniform(-1, 1, (40, 3)), sigma=0.1)
+    index = build_index(jax.random.key(0), data, n_bits=16, n_tables=1)
+    planes, center = np.asarray(index.planes[0]), np.asarray(index.center)
+    code = lambda x: (((x - center) @ planes.T > 0) * (1 << np.arange(16))).sum(-1)
+    cands = rng.normal(size=(200, 6)).astype(np.float32)
+    empty = cands[~np.isin(code(cands), code(data))][0]  # a query whose bucket holds no point
+    pred = predict(model, np.stack([empty, data[5]]), k=3, index=index)
+    assert np.asarray(pred.found).tolist() == [False, True]
+    assert int(pred.label[0]) == -1 and np.all(np.asarray(pred.scores[0]) == 0)
+    assert np.isnan(np.asarray(pred.quat[0])).all() and np.isnan(np.asarray(pred.euler[0])).all()
+    assert np.all(np.asarray(pred.indices[0]) == -1)
+    assert int(pred.label[1]) == labels[5] and np.isfinite(np.asarray(pred.euler[1])).all()
+    exact = predict(model, np.stack([empty, data[5]]), k=3)
+    assert np.asarray(exact.found).all() and np.all(np.asarray(exact.label) >= 0)

@@ -116,3 +116,41 @@ def test_bad_input(setup):
         build_index(jax.random.key(0), data, 0, 2)
     with pytest.raises(ValueError, match="data: must not be empty"):
         build_index(jax.random.key(0), np.zeros((0, 16)), 4, 2)
+
+
+# ------------------------------------------------------------------ issue 17: bad input, edge cases
+def test_issue17_case13_too_few_candidate_slots_named(setup):
+    """n_tables * n_per_table < k crashed inside top_k; it is a ValueError naming n_per_table."""
+    from hog_jax import fit, predict
+    data, q, _ = setup
+    idx = build_index(jax.random.key(0), data[:200], 6, 2)
+    with pytest.raises(ValueError, match="n_per_table: n_tables \\* n_per_table = 2 \\* 4 = 8 candidate slots"):
+        query(idx, q, k=10, n_per_table=4)
+    with pytest.raises(ValueError, match="n_per_table: .* = 1 \\* 8 = 8"):
+        query(idx, q, k=10, n_per_table=8, n_tables=1)
+    model = fit(data[:200], np.arange(200) % 3, sigma=1.0)
+    with pytest.raises(ValueError, match="n_per_table"):
+        predict(model, q, k=10, index=idx, n_per_table=4)
+    with pytest.raises(ValueError, match="n_per_table"):
+        tune(jax.random.key(0), data[:200], q[:5], k=10, n_bits_grid=(4,), n_tables_grid=(1, 2), n_per_table=4)
+    res = query(idx, q, k=10, n_per_table=5)  # exactly k slots: fine
+    chex.assert_shape(res.indices, (len(q), 10))
+
+
+def test_issue17_case15_empty_grid_and_int_key_named(setup):
+    """tune(n_bits_grid=()) crashed on max() of an empty sequence; build_index(0, ...) inside JAX."""
+    data, q, _ = setup
+    with pytest.raises(ValueError, match="n_bits_grid: must not be empty"):
+        tune(jax.random.key(0), data[:100], q[:5], k=3, n_bits_grid=())
+    with pytest.raises(ValueError, match="n_tables_grid: must not be empty"):
+        tune(jax.random.key(0), data[:100], q[:5], k=3, n_tables_grid=())
+    with pytest.raises(ValueError, match="n_bits_grid\\[1\\]: must be <= 32"):
+        tune(jax.random.key(0), data[:100], q[:5], k=3, n_bits_grid=(4, 40))
+    with pytest.raises(ValueError, match="key: expected a jax.random key"):
+        build_index(0, data, 4, 2)
+    with pytest.raises(ValueError, match="key: expected a jax.random key"):
+        tune(0, data[:100], q[:5], k=3)
+    with pytest.raises(ValueError, match="key: expected a single jax.random key"):
+        build_index(jax.random.split(jax.random.key(0), 2), data, 4, 2)
+    legacy = build_index(jax.random.PRNGKey(0), data[:100], 4, 2)  # raw uint32 keys still work
+    chex.assert_shape(legacy.keys, (2, 100))

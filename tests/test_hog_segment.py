@@ -213,3 +213,27 @@ def test_segment_bad_input(toy_model):
         segment(model, f)
     with pytest.raises(ValueError, match="seed_points: expected shape \\(1, 2\\)"):
         segment(model, np.zeros((1, 10, 10, 3)), seed_points=[[1, 2, 3]])
+
+
+# ------------------------------------------------------------------ issue 17: bad input, edge cases
+def test_issue17_case9_one_pixel_per_class_floors_the_covariance(tmp_path):
+    """One pixel per class and one component: the covariance of one sample was 0/0 (NaN means). It is
+    floored at reg * I (with a warning) and the model classifies and round-trips."""
+    skin, bg = np.array([[200.0, 140.0, 110.0]]), np.array([[40.0, 60.0, 200.0]])
+    with pytest.warns(UserWarning, match="(skin_rgb|background_rgb): 1 point\\(s\\) in 2 dimensions"):
+        model = fit_skin_model(jax.random.key(0), skin, bg, n_components=1, n_background=1, n_iter=5)
+    for gmm, px in ((model.skin, skin), (model.background, bg)):
+        np.testing.assert_allclose(np.asarray(gmm.means), np.asarray(rgb_to_chroma(px)), atol=1e-6)
+        cov = np.asarray(gmm.chols[0] @ gmm.chols[0].T)
+        np.testing.assert_allclose(cov, 1e-5 * np.eye(2), rtol=1e-4)
+    ratio = np.asarray(skin_log_ratio(model, np.concatenate([skin, bg])))
+    assert np.isfinite(ratio).all() and ratio[0] > 0 > ratio[1]
+    loaded = load_skin_model(save_skin_model(tmp_path / "one", model))
+    np.testing.assert_array_equal(np.asarray(loaded.skin.means), np.asarray(model.skin.means))
+    with pytest.warns(UserWarning, match="x: 1 point"):
+        g = fit_gmm(jax.random.key(1), np.array([[0.3, 0.7]]), n_components=1, n_iter=0)
+    assert np.isfinite(np.asarray(g.chols)).all()
+    with pytest.raises(ValueError, match="n_background: must be <= 1"):
+        fit_skin_model(jax.random.key(0), skin, bg, n_components=1, n_background=2)
+    with pytest.raises(ValueError, match="key: expected a jax.random key"):
+        fit_skin_model(0, skin, bg, n_components=1, n_background=1)
