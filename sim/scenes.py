@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lfd_common import check_int
+from lfd_common import check_int, check_real
 
 _TABLE_HEIGHT_M = 0.75
 _OBJECT_COLOURS = ("0.85 0.2 0.2 1", "0.2 0.6 0.85 1", "0.95 0.75 0.2 1", "0.3 0.75 0.35 1")
@@ -34,6 +34,7 @@ def tabletop_drop_scene(n_objects: int = 3, timestep_s: float = 0.004) -> str:
     order the objects are listed: object k's height is `qpos[7 * k + 2]`.
     """
     n_objects = check_int(n_objects, "n_objects", min_value=1, max_value=16)
+    timestep_s = check_real(timestep_s, "timestep_s", min_value=0.0, max_value=0.1, exclusive_min=True)
     bodies = []
     for k in range(n_objects):
         x = -0.2 + 0.4 * k / max(n_objects - 1, 1)
