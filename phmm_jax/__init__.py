@@ -31,7 +31,7 @@ Parametric HMMs
 
 Retargeting to a robot arm (Humanoids 2008 §IV-B, eqs. 10-24)
     retarget(markers (..., T, 7, 3), upper_arm, forearm) -> ArmAngles (shoulder Cardan angles, elbow, wrist twist)
-    solve_arm(q, r, o, upper_arm, forearm)  the same for elbow/hand/finger vectors; MARKER_ORDER: marker layout
+    solve_arm(q, r, o, upper_arm, forearm) -> ArmSolution  the same for elbow/hand/finger vectors; MARKER_ORDER: marker layout
 
 Persistence
     save(path, model), load(path)   structure as JSON + arrays, checked against each other on load
@@ -51,11 +51,11 @@ from phmm_jax.io import PHMMStructure, load, save
 from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
 from phmm_jax.options import FitOptions
 from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
-from phmm_jax.retarget import MARKER_ORDER, ArmAngles, retarget, solve_arm
+from phmm_jax.retarget import MARKER_ORDER, ArmAngles, ArmSolution, retarget, solve_arm
 from phmm_jax.synthesis import synthesize, target_to_phi
 
 __all__ = [
-    "ArmAngles", "FitOptions", "HMM", "MARKER_ORDER", "Messages", "PHMM", "PHMMStructure", "DenseHMM",
+    "ArmAngles", "ArmSolution", "FitOptions", "HMM", "MARKER_ORDER", "Messages", "PHMM", "PHMMStructure", "DenseHMM",
     "HMMConfig", "Posteriors", "Recognition",
     "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
     "interpolate", "load", "log_likelihood", "messages", "phmm_log_likelihood", "posteriors",

@@ -58,6 +58,8 @@ class ArmAngles(NamedTuple):
     shoulder (..., T, 3): Cardan angles (phi, theta, psi); elbow (..., T): flexion delta = pi - gamma;
     wrist (..., T): twist alpha. hand (..., T, 3) and elbow_point (..., T, 3): the scaled human hand and
     elbow. robot_elbow (..., T, 3): the robot's elbow q' = a u1. scale (...,): robot / human arm length.
+    singular (..., T) bool: a frame whose arm plane or wrist twist the markers leave undefined (see
+    `solve_arm`); its angles come from the documented fallback, never NaN.
     """
 
     shoulder: jax.Array
@@ -67,41 +69,83 @@ class ArmAngles(NamedTuple):
     elbow_point: jax.Array
     robot_elbow: jax.Array
     scale: jax.Array
+    singular: jax.Array
 
 
-def _unit(v):
-    return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
+class ArmSolution(NamedTuple):
+    """`solve_arm`'s result: shoulder (..., 3) Cardan angles, elbow (...,) flexion, wrist (...,) twist,
+    robot_elbow (..., 3), singular (...,) bool (a fallback direction was used)."""
+
+    shoulder: jax.Array
+    elbow: jax.Array
+    wrist: jax.Array
+    robot_elbow: jax.Array
+    singular: jax.Array
+
+
+# Below this fraction of its reference length a vector has no usable direction (float32 rounding
+# of a projection leaves ~1e-7 of it, pointing anywhere).
+_DEGENERATE = 1e-4
 
 
 def _dot(a, b):
     return jnp.sum(a * b, axis=-1, keepdims=True)
 
 
+def _unit_or(v, reference_length, fallback):
+    """(unit(v), True) where |v| > _DEGENERATE * reference_length, else (fallback, False); the
+    double `where` keeps gradients finite on the fallback side."""
+    ok = jnp.linalg.norm(v, axis=-1) > _DEGENERATE * reference_length
+    safe = jnp.where(ok[..., None], v, fallback)
+    return safe / jnp.linalg.norm(safe, axis=-1, keepdims=True), ok
+
+
+def _off_axis(v, axis):
+    return v - _dot(v, axis) * axis
+
+
 def solve_arm(q: Float[Array, "*batch 3"], r: Float[Array, "*batch 3"], o: Float[Array, "*batch 3"],
-              upper_arm: float, forearm: float, base_frame: Float[ArrayLike, "3 3"] = DEFAULT_BASE_FRAME):
+              upper_arm: float, forearm: float, base_frame: Float[ArrayLike, "3 3"] = DEFAULT_BASE_FRAME
+              ) -> ArmSolution:
     """Joint angles for elbow q, hand r and finger->thumb direction o (..., 3), all relative to the
-    shoulder and already in robot scale. Returns (cardan (..., 3), delta (...,), alpha (...,),
-    robot_elbow (..., 3)). Pure jnp, differentiable away from the singular poses."""
+    shoulder and already in robot scale. Pure jnp, finite values and gradients everywhere.
+
+    Singular poses, where the markers leave a direction undefined, take a fallback and are flagged
+    in `singular`: the hand at the shoulder (w1 of eq. 13 undefined: the base frame's v1, the arm
+    hanging); the elbow on the shoulder-hand line, a straight arm (w2 of eq. 15 undefined: the base
+    frame's v2, forward, off w1, or v3 where w1 is along v2); o along the forearm (twist of eq. 23
+    undefined: alpha = 0)."""
     a, b = upper_arm, forearm
-    c = jnp.clip(jnp.linalg.norm(r, axis=-1), abs(a - b) * (1 + 1e-6) + 1e-9, (a + b) * (1 - 1e-6))
+    base = jnp.asarray(base_frame, jnp.result_type(q))
+    reach = a + b
+    r_sq = jnp.sum(r * r, axis=-1)
+    r_norm = jnp.where(r_sq > 0, jnp.sqrt(jnp.where(r_sq > 0, r_sq, 1.0)), 0.0)  # |r|, finite gradient at 0
+    c = jnp.clip(r_norm, abs(a - b) * (1 + 1e-6) + 1e-9, reach * (1 - 1e-6))
     gamma = jnp.arccos(jnp.clip((a**2 + b**2 - c**2) / (2 * a * b), -1.0, 1.0))  # (10)
     beta = jnp.arccos(jnp.clip((a**2 + c**2 - b**2) / (2 * a * c), -1.0, 1.0))  # (11)
-    w1 = _unit(r)  # (13)
-    w2 = _unit(q - _dot(q, w1) * w1)  # (14, 15)
+    w1, hand_ok = _unit_or(r, reach, jnp.broadcast_to(base[:, 0], r.shape))  # (13)
+    forward, _ = _unit_or(_off_axis(jnp.broadcast_to(base[:, 1], w1.shape), w1), 1.0,
+                                   _off_axis(jnp.broadcast_to(base[:, 2], w1.shape), w1))
+    w2, plane_ok = _unit_or(_off_axis(q, w1), jnp.linalg.norm(q, axis=-1) + _DEGENERATE * reach, forward)  # (14, 15)
     u1 = jnp.cos(beta)[..., None] * w1 + jnp.sin(beta)[..., None] * w2  # (12)
-    forearm_vec = c[..., None] * w1 - a * u1  # elbow -> hand
-    u2 = _unit(forearm_vec - _dot(forearm_vec, u1) * u1)  # (20, 21): -w2 when beta < 90 deg, see above
+    # (20, 21): elbow -> hand (c w1 - a u1) off u1 is -c sin(beta) (cos(beta) w2 - sin(beta) w1), so its
+    # direction in closed form, well conditioned also when the arm is folded (beta near 180 deg).
+    u2 = jnp.sin(beta)[..., None] * w1 - jnp.cos(beta)[..., None] * w2
     u3 = jnp.cross(u1, u2)  # (22)
     U = jnp.stack([u1, u2, u3], axis=-1)  # columns u_i
-    R = jnp.swapaxes(U, -1, -2) @ jnp.asarray(base_frame, U.dtype)  # (19)
+    R = jnp.swapaxes(U, -1, -2) @ base  # (19)
     phi = jnp.arctan2(R[..., 2, 1], R[..., 2, 2])  # (16)
     theta = -jnp.arcsin(jnp.clip(R[..., 2, 0], -1.0, 1.0))  # (17)
     psi = jnp.arctan2(R[..., 1, 0], R[..., 0, 0])  # (18)
     delta = jnp.pi - gamma
     forearm_dir = jnp.cos(delta)[..., None] * u1 + jnp.sin(delta)[..., None] * u2
-    o_proj = o - _dot(o, forearm_dir) * forearm_dir  # (24), projecting out the forearm direction
-    alpha = jnp.arctan2(_dot(o_proj, jnp.cross(forearm_dir, u3))[..., 0], _dot(o_proj, u3)[..., 0])  # (23)
-    return jnp.stack([phi, theta, psi], axis=-1), delta, alpha, a * u1
+    o_proj = _off_axis(o, forearm_dir)  # (24), projecting out the forearm direction
+    twist_ok = jnp.linalg.norm(o_proj, axis=-1) > _DEGENERATE * jnp.linalg.norm(o, axis=-1)
+    across = jnp.where(twist_ok, _dot(o_proj, jnp.cross(forearm_dir, u3))[..., 0], 0.0)
+    along = jnp.where(twist_ok, _dot(o_proj, u3)[..., 0], 1.0)
+    alpha = jnp.arctan2(across, along)  # (23)
+    singular = ~(hand_ok & plane_ok & twist_ok)
+    return ArmSolution(jnp.stack([phi, theta, psi], axis=-1), delta, alpha, a * u1, singular)
 
 
 @jax.jit
@@ -116,8 +160,8 @@ def _retarget(markers, shoulder_ref, upper_arm, forearm, scale, base_frame):
     origin = jnp.where(jnp.isnan(shoulder_ref), p, shoulder_ref)
     q_s = scale[..., None, None] * (q - origin)
     r_s = scale[..., None, None] * (r - origin)
-    cardan, delta, alpha, robot_elbow = solve_arm(q_s, r_s, o, upper_arm, forearm, base_frame)
-    return ArmAngles(cardan, delta, alpha, r_s, q_s, robot_elbow, scale)
+    arm = solve_arm(q_s, r_s, o, upper_arm, forearm, base_frame)
+    return ArmAngles(arm.shoulder, arm.elbow, arm.wrist, r_s, q_s, arm.robot_elbow, scale, arm.singular)
 
 
 def retarget(markers: Float[ArrayLike, "*batch T 7 3"] | Float[ArrayLike, "*batch T 21"], upper_arm: float = 0.105,
@@ -150,6 +194,12 @@ def retarget(markers: Float[ArrayLike, "*batch T 7 3"] | Float[ArrayLike, "*batc
     else:
         shoulder = np.broadcast_to(as_array(shoulder, "shoulder", ndim=range(1, 8)), batch + (3,))
     if scale is None:
+        hand = markers[..., [_KNUCKLE, _TIP, _THUMB], :].mean(-2)
+        elbow = markers[..., _ELBOW, :]
+        length = np.linalg.norm(elbow - markers[..., _SHOULDER, :], axis=-1) + np.linalg.norm(hand - elbow, axis=-1)
+        if np.any(np.median(length, axis=-1) < 1e-6):
+            raise ValueError("markers: a movement whose shoulder, elbow and hand coincide has no arm length "
+                             "to scale by; pass scale=")
         scale = np.zeros(batch)
     else:
         scale = np.broadcast_to(as_array(scale, "scale", ndim=range(0, 7), min_value=1e-9), batch)

@@ -5,6 +5,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from experiments.data import tabletop as tt
 from phmm_jax.retarget import DEFAULT_BASE_FRAME, MARKER_ORDER, retarget, solve_arm
@@ -92,8 +93,8 @@ def test_gradients_are_finite(movements):
     q, r, o = x[:, 2] - x[:, 1], x[:, 4:7].mean(1) - x[:, 1], x[:, 6] - x[:, 5]
 
     def loss(q, r):
-        cardan, delta, alpha, _ = solve_arm(0.4 * q, 0.4 * r, o, A, B)
-        return jnp.sum(cardan**2) + jnp.sum(delta) + jnp.sum(jnp.sin(alpha))
+        arm = solve_arm(0.4 * q, 0.4 * r, o, A, B)
+        return jnp.sum(arm.shoulder**2) + jnp.sum(arm.elbow) + jnp.sum(jnp.sin(arm.wrist))
 
     gq, gr = jax.grad(loss, argnums=(0, 1))(q, r)
     assert np.all(np.isfinite(np.asarray(gq))) and np.all(np.isfinite(np.asarray(gr)))
@@ -133,3 +134,54 @@ def test_bad_input():
         retarget(x, base_frame=2 * np.eye(3))
     with pytest.raises(ValueError, match="scale"):
         retarget(x, scale=0.0)
+
+
+_solve = jax.jit(lambda q, r, o: solve_arm(q, r, o, A, B))
+_grad = jax.jit(jax.grad(lambda q, r, o: sum(jnp.sum(jnp.sin(v)) for v in solve_arm(q, r, o, A, B)[:3]),
+                         argnums=(0, 1, 2)))
+
+
+def _pose(draw_unit, length, kind):
+    """Elbow q, hand r, finger->thumb o in robot scale; `kind` builds the singular poses."""
+    r = draw_unit(0) * length
+    q = draw_unit(1) * A
+    o = draw_unit(2) * 0.05
+    if kind == "straight":
+        q = r / np.linalg.norm(r) * A
+    elif kind == "hand at shoulder":
+        r = np.zeros(3)
+    elif kind == "elbow at shoulder":
+        q = np.zeros(3)
+    return q, r, o
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 2**16), length=st.floats(0.02, 0.3),
+       kind=st.sampled_from(["free", "straight", "hand at shoulder", "elbow at shoulder"]))
+def test_issue17_solve_arm_singular_poses_are_finite_and_flagged(seed, length, kind):
+    rng = np.random.default_rng(seed)
+
+    def draw_unit(_):
+        v = rng.normal(size=3)
+        return v / np.linalg.norm(v)
+
+    q, r, o = (jnp.asarray(v, jnp.float32) for v in _pose(draw_unit, length, kind))
+    arm = _solve(q, r, o)
+    for value in (*arm[:4], *_grad(q, r, o)):
+        assert np.all(np.isfinite(np.asarray(value)))
+    assert bool(arm.singular) == (kind != "free")
+    elbow, grasp, _ = _fk(np.asarray(arm.shoulder, float), float(arm.elbow), float(arm.wrist))
+    np.testing.assert_allclose(elbow, np.asarray(arm.robot_elbow), atol=1e-5)
+    if kind != "hand at shoulder" and abs(A - B) < length < A + B:  # reachable: the grasp point is on the hand
+        np.testing.assert_allclose(grasp, np.asarray(r), atol=1e-4)
+
+
+def test_issue17_retarget_flags_a_straight_arm_and_rejects_a_zero_length_arm(movements):
+    straight = movements[:1].copy()
+    wrist_dir = straight[0, :, 4:7].mean(1) - straight[0, :, 1]
+    straight[0, :, 2] = straight[0, :, 1] + 0.4 * wrist_dir  # elbow on the shoulder-hand line
+    res = retarget(straight, A, B)
+    assert np.all(np.asarray(res.singular)) and np.all(np.isfinite(np.asarray(res.shoulder)))
+    assert not np.any(np.asarray(retarget(movements, A, B).singular))
+    with pytest.raises(ValueError, match="markers"):
+        retarget(np.ones((10, 7, 3)))
