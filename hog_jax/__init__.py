@@ -26,6 +26,25 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
   euler, indices, distances, found)`, `intra_class_sigma`, `vote`, `mean_rotation`, `euler_to_quat`,
   `quat_to_euler`.
 
+Video (LEVELSET TR §3-5; LfD 2009 §III-A; T frames, R regions):
+
+* Background (`background`, TR §3.5, eqs. 9-10, Stauffer–Grimson): `BackgroundStructure`,
+  `BackgroundOptions`, `BackgroundState`, `init_background`, `run_background(frames (T, H, W, 3),
+  no_update_masks)` -> (state, foreground (T, H, W)), `run_background_batch` (B videos);
+  `background.update` for one frame.
+* Colour models (`colour_models`, TR §3.4, eq. 8): `fit_gmm_bic`, `fit_person_background_models`,
+  `region_log_likelihoods`, `bic`, `gmm_n_params`, `ColourFit`, `ColourModels`, `ColourStructure`, `BICScores`.
+* Level sets (`levelset`, TR eqs. 5-7, 11, §5): `LevelSetStructure`, `LevelSetOptions`, `LevelSetResult`,
+  `evolve(structure, scores (R, H, W))`, `segment_video(structure, scores (T, R, H, W))`,
+  `init_level_sets`, `heaviside`, `dirac`, `curvature`, `contour_length`, `signed_distance`;
+  `chan_vese_segment` / `chan_vese_scores` (`levelset_grey`: two grey regions, the benchmark's case).
+* Blobs, tracking, stereo (`blobs`, `tracking`, `tracks`, `stereo`; TR §3.7): `connected_blobs`, `mask_ellipse`,
+  `ellipse_axes`, `weighted_moments`, `track` (α-β, `alpha_beta_gains`), `hand_face_positions` ->
+  `HandFacePositions`, `StereoCamera`, `project`, `triangulate`, `camera_matrices`.
+* The pipeline (`video`): `fit_skin`, `fit_video_models`, `region_scores`, `segment_recording`,
+  `segment_stereo(models, left, right, start, camera)` -> `StereoSegmentation` (labels in `REGIONS`
+  order: background, person, skin, object; -1 on boundaries).
+
 Example::
 
     import jax, numpy as np, hog_jax
@@ -51,6 +70,19 @@ orientation (no silent fallback); exact search always finds k. `segment` marks f
 by `Segmentation.found` False.
 """
 from hog_jax.exact import LSHResult, exact_search
+from hog_jax.background import (BackgroundOptions, BackgroundState, BackgroundStructure, init_background,
+                                run_background, run_background_batch)
+from hog_jax.blobs import Blobs, Ellipse, EllipseAxes, connected_blobs, ellipse_axes, mask_ellipse, weighted_moments
+from hog_jax.colour_models import (BICScores, ColourFit, ColourModels, ColourStructure, bic, fit_gmm_bic,
+                                   fit_person_background_models, gmm_n_params, region_log_likelihoods)
+from hog_jax.levelset import (LevelSetOptions, LevelSetResult, LevelSetStructure, contour_length, curvature, dirac,
+                              evolve, heaviside, init_level_sets, segment_video, signed_distance)
+from hog_jax.levelset_grey import chan_vese_scores, chan_vese_segment
+from hog_jax.stereo import StereoCamera, StereoProjection, Triangulation, camera_matrices, project, triangulate
+from hog_jax.tracking import INIT_RULES, TrackState, Tracks, alpha_beta_gains, track
+from hog_jax.tracks import FACE, HAND, OTHER_HAND, HandFacePositions, hand_face_positions
+from hog_jax.video import (REGIONS, StereoSegmentation, VideoModels, VideoOptions, VideoSegmentation, fit_skin,
+                           fit_video_models, region_scores, segment_recording, segment_stereo)
 from hog_jax.hog import HOGConfig, hog, hog_dim
 from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
                          quat_to_euler, vote)
@@ -64,4 +96,14 @@ __all__ = [
     "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "Prediction", "TuneResult", "build_index",
     "euler_to_quat", "exact_search", "fit", "hog", "hog_dim", "intra_class_sigma", "mean_rotation",
     "predict", "query", "quat_to_euler", "recall_at_k", "tune", "vote",
+    "BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "run_background",
+    "run_background_batch", "Blobs", "Ellipse", "EllipseAxes", "connected_blobs", "ellipse_axes", "mask_ellipse",
+    "weighted_moments", "BICScores", "ColourFit", "ColourModels", "ColourStructure", "bic", "fit_gmm_bic",
+    "fit_person_background_models", "gmm_n_params", "region_log_likelihoods", "LevelSetOptions", "LevelSetResult",
+    "LevelSetStructure", "contour_length", "curvature", "dirac", "evolve", "heaviside", "init_level_sets",
+    "segment_video", "signed_distance", "chan_vese_scores", "chan_vese_segment", "StereoCamera", "StereoProjection",
+    "Triangulation", "camera_matrices", "project", "triangulate", "INIT_RULES", "TrackState", "Tracks",
+    "alpha_beta_gains", "track", "FACE", "HAND", "OTHER_HAND", "HandFacePositions", "hand_face_positions",
+    "REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
+    "fit_video_models", "region_scores", "segment_recording", "segment_stereo",
 ]

@@ -116,13 +116,18 @@ def gmm_log_prob(gmm: GMM, x: Float[ArrayLike, "*batch P"]) -> Float[Array, "*ba
 
 
 @partial(jax.jit, static_argnames=("n_components",))
-def _em(key, x, n_components: int, n_iter: int, reg):
+def _em(key, x, n_components: int, n_iter: int, reg, n_active=None, means=None):
+    """EM of `fit_gmm`. n_active (traced, default all G): only the first n_active components are fitted,
+    the others keep weight 0 (log weight -inf), so mixtures of several sizes share one compilation;
+    means (G, P): initial means (default: G distinct random data points). `colour_models.fit_gmm_bic`
+    uses both, vmapped over candidate sizes and k-means++ starts."""
     N, P = x.shape
     G = n_components
-    means = x[jax.random.choice(key, N, (G,), replace=False)]
+    active = jnp.arange(G) < (G if n_active is None else n_active)
+    means = x[jax.random.choice(key, N, (G,), replace=False)] if means is None else means
     cov = jnp.cov(x.T, bias=N == 1).reshape(P, P) + reg * jnp.eye(P)  # one point: zero spread, not 0/0
     chols = jnp.broadcast_to(jnp.linalg.cholesky(cov), (G, P, P))
-    gmm = GMM(jnp.full((G,), -jnp.log(G)), means, chols)
+    gmm = GMM(jnp.where(active, -jnp.log(jnp.sum(active)), -jnp.inf), means, chols)
 
     def step(_, gmm):
         diff = x[:, None, :] - gmm.means
@@ -134,7 +139,7 @@ def _em(key, x, n_components: int, n_iter: int, reg):
         mu = (resp.T @ x) / nk[:, None]
         d = x[:, None, :] - mu
         cov = jnp.einsum("ng,ngi,ngj->gij", resp, d, d) / nk[:, None, None] + reg * jnp.eye(P)
-        return GMM(jnp.log(nk / N), mu, jnp.linalg.cholesky(cov))
+        return GMM(jnp.where(active, jnp.log(nk / N), -jnp.inf), mu, jnp.linalg.cholesky(cov))
 
     return jax.lax.fori_loop(0, n_iter, step, gmm)
 

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 
+from hog_jax import stereo
 from lfd_common import axis_angle_to_matrix as _rot, check_int  # _rot(axis (3,), angle (...)) -> (..., 3, 3)
 from experiments.data.oac.grips import grip_of
 from experiments.data.oac.settings import BASELINE_M, FOCAL_PX, IMAGE_SIZE_PX, N_CLASSES, OACSettings, Person, TABLE_Z_M
@@ -103,20 +104,24 @@ def camera_pose(person: Person) -> tuple[np.ndarray, np.ndarray]:
     return centre, np.stack([right, down, fwd], axis=1)
 
 
+# The data set's pair: principal point at (W / 2, H / 2), as the recordings were generated.
+CAMERA = stereo.StereoCamera(FOCAL_PX, BASELINE_M, *IMAGE_SIZE_PX, cx=IMAGE_SIZE_PX[0] / 2, cy=IMAGE_SIZE_PX[1] / 2)
+
+
 def project(points: np.ndarray, centre: np.ndarray, rot: np.ndarray) -> np.ndarray:
-    """Pinhole projection of world points (..., 3) to pixels (..., 2) of a 640 x 480, f = 525 camera."""
-    cam = (points - centre) @ rot
-    c = np.array(IMAGE_SIZE_PX, float) / 2
-    return FOCAL_PX * cam[..., :2] / cam[..., 2:3] + c
+    """Pinhole projection of world points (..., 3) to pixels (..., 2) of the camera at `centre`, `rot`
+    (640 x 480, f = 525: `CAMERA`'s left view)."""
+    return stereo.project(CAMERA, (points - centre) @ rot).left
 
 
 def triangulate(left_px: np.ndarray, right_px: np.ndarray) -> np.ndarray:
-    """Rectified-stereo triangulation: pixels (..., 2) in both images -> points (..., 3) in the left camera frame."""
-    c = np.array(IMAGE_SIZE_PX, float) / 2
-    disparity = np.maximum(left_px[..., 0] - right_px[..., 0], 1.0)
-    z = FOCAL_PX * BASELINE_M / disparity
-    xy = (left_px - c) * (z / FOCAL_PX)[..., None]
-    return np.concatenate([xy, z[..., None]], axis=-1)
+    """Rectified-stereo triangulation: pixels (..., 2) in both images -> points (..., 3) in the left camera frame.
+
+    The simulated centroids carry independent noise, so their disparity may reach 0 or below; the data
+    set clamps it at 1 px (a far point) rather than drop the frame, by moving the right pixel."""
+    right = np.array(right_px, dtype=float)
+    right[..., 0] = np.minimum(right[..., 0], np.asarray(left_px, float)[..., 0] - 1.0)
+    return stereo.triangulate(CAMERA, left_px, right).xyz
 
 
 def _ar1(rng: np.random.Generator, n: int, dims: int, rho: float = 0.8) -> np.ndarray:

@@ -1,0 +1,3 @@
+from experiments.video_segmentation.stages import main
+
+main()

@@ -1,0 +1,157 @@
+"""The stages of the video segmentation study and its `main` (issue 18): skin models from some persons,
+every clip of the others through (a) skin alone, (b) level sets with the background model and (c)
+tracking; the background model on the real CDnet video beside OpenCV; figures; one writer."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import cv2
+import jax
+import numpy as np
+
+import hog_jax
+import sim
+from experiments.bench.bench_background import BenchConfig, f1_stage
+from experiments.config import StageResult, parse_config, progress
+from experiments.data import video
+from experiments.data.cdnet import load_cdnet
+from experiments.video_segmentation import plots
+from experiments.video_segmentation.config import PRESETS, Config
+from experiments.video_segmentation.evaluate import METHODS, SKIN_ONLY, TRACKED, evaluate_clip
+from experiments.video_segmentation.report import report
+from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_stereo
+from lfd_common import enable_compilation_cache
+
+
+def camera_of(rec) -> hog_jax.StereoCamera:
+    """The recording's rectified pair from its camera matrices (world -> pixels): intrinsics and the
+    two camera centres by `cv2.decomposeProjectionMatrix`, the baseline their distance."""
+    K, _, left_centre = cv2.decomposeProjectionMatrix(rec.P_left)[:3]
+    right_centre = cv2.decomposeProjectionMatrix(rec.P_right)[2]
+    K = K / K[2, 2]
+    baseline = np.linalg.norm(left_centre[:3, 0] / left_centre[3, 0] - right_centre[:3, 0] / right_centre[3, 0])
+    H, W = rec.left.shape[1:3]
+    return hog_jax.StereoCamera(focal_px=float(K[0, 0]), baseline_m=float(baseline), width=W, height=H,
+                                cx=float(K[0, 2]), cy=float(K[1, 2]))
+
+
+def segmentation_start(settings: video.VideoSettings) -> int:
+    """The first segmented frame: the empty frames, the entry and the settling (TR §3: after the
+    training phase; in a real setup the person would say when)."""
+    return int(round(settings.n_empty + (settings.entry_s + settings.settle_s) * settings.fps))
+
+
+def skin_stage(cfg: Config, settings: video.VideoSettings):
+    """(a)'s chroma skin model (`hog_jax.fit_skin_model`) and (b)'s RGB skin GMM (`fit_skin`) from the
+    hand and face pixels of the first `n_skin_persons` persons' clips (left views, subsampled)."""
+    skin, other = [], []
+    rng = np.random.default_rng(cfg.seed)
+    for person, _, _, rec in video.iter_clips(settings, progress=progress):
+        if person >= cfg.n_skin_persons:
+            break
+        lab = rec.left_labels[::3]
+        is_skin = (lab == 2) | (lab == 3)
+        skin.append(rec.left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
+        other.append(rec.left[::3][~is_skin][rng.random((~is_skin).sum()) < 0.005])
+    skin, other = np.concatenate(skin), np.concatenate(other)
+    k1, k2 = jax.random.split(jax.random.key(cfg.seed))
+    return hog_jax.fit_skin_model(k1, skin, other), fit_skin(k2, skin), {"skin_pixels": len(skin),
+                                                                          "non_skin_pixels": len(other)}
+
+
+def _pad(rec, multiple: int):
+    """The recording with its frames padded to a multiple of `multiple` (the last frame repeated), so
+    that clips of similar length share one compilation; the scans are causal, so frames before the
+    padding are unchanged."""
+    T = rec.left.shape[0]
+    extra = -T % multiple
+    rep = lambda a: np.concatenate([a, np.repeat(a[-1:], extra, axis=0)])
+    return rep(rec.left), rep(rec.right), T
+
+
+def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, StageResult, dict]:
+    """Every clip of the evaluated persons: the three methods' pooled IoUs and centroid errors."""
+    options = VideoOptions(motion_penalty=cfg.motion_penalty, object_margin=cfg.object_margin,
+                           person_frames=cfg.person_frames)
+    start = segmentation_start(settings)
+    inter, union, errors, merged, err3d, series = {}, {}, {m: [] for m in METHODS}, [], [], []
+    first = None
+    n = 0
+    for person, cls, rep, rec in video.iter_clips(settings, progress=progress):
+        if person < cfg.n_skin_persons:
+            continue
+        if cfg.max_clips and n >= cfg.max_clips:
+            break
+        left, right, T = _pad(rec, cfg.pad_frames)
+        models, _ = fit_video_models(jax.random.key(cfg.seed + n), rgb_skin, left, start, options)
+        seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
+        seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
+        skin_mask = np.asarray(hog_jax.segment(chroma_skin, rec.left).skin)
+        counts = evaluate_clip(rec, skin_mask, seg, start, camera_of(rec))
+        for key in counts.inter:
+            inter[key] = inter.get(key, 0) + counts.inter[key]
+            union[key] = union.get(key, 0) + counts.union[key]
+        for m in METHODS:
+            errors[m].append(counts.hand_error_px[m])
+        merged.append(counts.merged)
+        err3d.append(counts.hand_error_3d_cm)
+        series.append(counts.iou_series)
+        if first is None:
+            first = (rec, seg, start)
+        n += 1
+    if not n:
+        raise ValueError("n_skin_persons: no clip of another person is left to evaluate")
+    iou = {f"{m}_{r}": inter[m, r] / max(union[m, r], 1) for (m, r) in inter}
+    err = {m: np.concatenate(errors[m]) for m in METHODS}
+    merged, err3d = np.concatenate(merged), np.concatenate(err3d)
+    metrics = {
+        "iou_hand": iou[f"{TRACKED}_hand"], "iou_face": iou[f"{TRACKED}_face"],
+        "iou_person": iou[f"{TRACKED}_person"], "iou_object": iou[f"{TRACKED}_object"],
+        "iou_hand_skin_only": iou[f"{SKIN_ONLY}_hand"], "iou_hand_levelset_no_tracking": iou["levelset_no_tracking_hand"],
+        "iou_face_skin_only": iou[f"{SKIN_ONLY}_face"], "iou_face_levelset_no_tracking": iou["levelset_no_tracking_face"],
+        "hand_centroid_error_px": float(np.nanmedian(err[TRACKED])),
+        "hand_centroid_error_px_merged": float(np.nanmedian(err[TRACKED][merged])) if merged.any() else float("nan"),
+        "hand_error_3d_cm": float(np.nanmedian(err3d)), "n_clips": n, "n_hand_frames": int(len(merged)),
+        "n_merged_frames": int(merged.sum()), "hand_found_3d_rate": float(np.mean(np.isfinite(err3d))),
+    }
+    for m in METHODS:
+        metrics[f"hand_centroid_error_px_{m}"] = float(np.nanmedian(err[m]))
+        metrics[f"hand_centroid_error_px_merged_{m}"] = float(np.nanmedian(err[m][merged])) if merged.any() else float("nan")
+        metrics[f"hand_found_rate_{m}"] = float(np.mean(np.isfinite(err[m])))
+    figures = {"iou_over_time.png": plots.iou_over_time(series), "tracks.png": plots.tracks(*first),
+               "contact_sheet.png": plots.contact_sheet(*first, cfg.sheet_frames)}
+    return metrics, StageResult(metrics, figures), {"first": first}
+
+
+def cdnet_stage(cfg: Config) -> StageResult:
+    """The background model on the real CDnet highway video beside MOG2 and KNN (skipped, saying so,
+    when the folder is absent)."""
+    if not Path(cfg.cdnet_dir).is_dir():
+        print(f"note: {cfg.cdnet_dir} not found; the real-video part is skipped")
+        return StageResult({"real_skipped": True}, report="Real video: skipped (no CDnet folder).")
+    clip = load_cdnet(cfg.cdnet_dir, 1, cfg.cdnet_last)
+    scores = f1_stage(BenchConfig(cdnet_dir=cfg.cdnet_dir, eval_last=cfg.cdnet_last, ablations=False),
+                      clip.frames, clip.groundtruth, clip.roi)
+    metrics = {"real_f1_ours": scores["ours"]["f1"], "real_f1_mog2": scores["mog2"]["f1"],
+               "real_f1_knn": scores["knn"]["f1"], "real_skipped": False, "real_eval_frames": cfg.cdnet_last - 469,
+               "real_scores": scores}
+    return StageResult(metrics)
+
+
+def main(argv=None) -> dict:
+    cfg, run = parse_config(Config, PRESETS, name="video_segmentation", argv=argv)
+    sim.setup_rendering()
+    enable_compilation_cache()
+    start_s = time.perf_counter()
+    settings = cfg.video_settings()
+    chroma_skin, rgb_skin, skin_metrics = skin_stage(cfg, settings)
+    metrics, clips_result, extra = clips_stage(cfg, settings, chroma_skin, rgb_skin)
+    real = cdnet_stage(cfg)
+    runtime = time.perf_counter() - start_s
+    rec, seg, start = extra["first"]
+    video.write_video(plots.overlay_frames(rec, seg), run.file("overlay.mp4"), fps=settings.fps)
+    written = run.write_stages([clips_result, real], header=report(cfg, {**metrics, **real.metrics}, runtime),
+                               runtime_s=runtime, **skin_metrics)
+    print(f"wrote {run.path}/ in {runtime:.0f} s")
+    return written

@@ -1,0 +1,392 @@
+"""Per-pixel Gaussian-mixture background model (level-set TR §3.5, eqs. 9-10; Stauffer & Grimson,
+"Adaptive background mixture models for real-time tracking", CVPR 1999).
+
+Shapes: T frames, B videos, H x W pixels, C colour channels (3: RGB in [0, 255]), K components.
+
+Each pixel holds K Gaussians with one variance each (isotropic, Sigma = sigma^2 I, as Stauffer-Grimson):
+weights w (H, W, K), means mu (H, W, K, C), variances sigma^2 (H, W, K) (`BackgroundState`). Per frame
+and pixel X (`update`):
+
+1. match: component k matches when w_k > 0 and |X - mu_k| < lambda sigma_k (lambda = 2.5, TR §3.5; the
+   Euclidean norm over the C channels); the *best match* is the matching component of highest
+   w / sigma (Stauffer-Grimson's order: most weight, least spread first; ties: the lower index).
+   Components of weight 0 are empty (the unused ones after `init_background`) and never match.
+2. a match (eq. 10): w_k <- (1 - alpha) w_k + alpha M_k for all k (M = 1 for the best match, else 0);
+   only the best match's mean and variance move: mu <- (1 - rho) mu + rho X, then
+   sigma^2 <- max((1 - rho) sigma^2 + rho |X - mu|^2, min_variance) with the *updated* mean, as eq. 10
+   and Stauffer-Grimson write it. rho = alpha (the TR's choice; `rho="alpha"`) or rho = alpha eta(X |
+   mu, sigma^2 I) (eq. 10's alternative, `rho="alpha_eta"`, clipped to 1).
+   As in eq. 10 the variance tracks the *total* squared distance over the C channels (not the
+   per-channel one), so the 2.5 sigma test is on that scale (OpenCV's MOG2 does the same).
+3. no match: all weights decay (M = 0), and the least probable component (lowest w / sigma, ties: the
+   lower index) is replaced by one at X with variance `init_variance` and weight `init_weight`.
+4. weights renormalised to sum to 1.
+5. pixels in the frame's `no_update_mask` (the person and tracked objects, TR §3.5 last paragraph)
+   keep their state unchanged: they are classified but never learned, so a person who stands still
+   stays foreground.
+
+Foreground decision, on the state after the update (`decision`):
+* "stauffer_grimson" (default): order the components by w / sigma; the first B, B = argmin_b
+  (sum_{k<=b} w_k > T), model the background (T = `background_ratio`); a pixel is foreground when
+  nothing matched or its best match is not among them. This is the default because with the TR's
+  simpler rule a component that has just replaced the worst one (wide, at the foreground colour)
+  matches the next frame's foreground pixel at once, so a moving person would be background one
+  frame after arriving; here a new component must earn weight T before it counts as background.
+* "matched" (TR §3.5: "if there exists a Gaussian that matches well ... it is considered
+  background"): foreground = nothing matched.
+
+Defaults: K = 3, alpha = 0.05, rho = alpha, lambda = 2.5 (TR §3.5). Stauffer-Grimson leave T and the
+replacement's "high variance, low weight" as parameters; we take the values of OpenCV's implementation
+of their model (`bgsegm.BackgroundSubtractorMOG`, after KaewTraKulPong & Bowden 2001): T = 0.7 (its
+backgroundRatio), initial weight 0.05, initial standard deviation 2 x 15 = 30 (variance 900).
+`min_variance` = 4 is a floor that eqs. 9-10 lack: on integer pixel values a static pixel's variance
+decays geometrically to 0, after which an exact repeat fails the strict test |X - mu| < 2.5 sigma; 4
+is OpenCV MOG2's default floor (`fVarMin`), on the same total-squared-distance scale.
+
+Options (`BackgroundOptions`) are traced: changing alpha, T or the decision rule does not recompile.
+Vectorised over pixels, `lax.scan` over frames (`run_background`), `vmap` over videos
+(`run_background_batch`, in groups of `videos_per_step`). Internally the pixels lie on the last axis
+((K, N), (K, C, N), N = H W): every per-component quantity is one elementwise loop over the pixels.
+Validation (ValueError naming the argument) happens at the boundary, outside jit.
+"""
+from __future__ import annotations
+
+import dataclasses
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Real
+
+from lfd_common import as_array, check_choice, check_int, check_real
+
+__all__ = ["BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "run_background",
+           "run_background_batch", "update"]
+
+_RHO = ("alpha", "alpha_eta")
+_DECISIONS = ("stauffer_grimson", "matched")
+
+
+@dataclasses.dataclass(frozen=True)
+class BackgroundStructure:
+    """What changes the state's shapes: K components per pixel and C colour channels."""
+
+    n_components: int = 3
+    n_channels: int = 3
+
+    def __post_init__(self):
+        check_int(self.n_components, "n_components", min_value=1)
+        check_int(self.n_channels, "n_channels", min_value=1)
+
+
+class BackgroundState(NamedTuple):
+    """weights (H, W, K) summing to 1 per pixel, means (H, W, K, C), variances (H, W, K)."""
+
+    weights: Float[Array, "H W K"]
+    means: Float[Array, "H W K C"]
+    variances: Float[Array, "H W K"]
+
+
+class BackgroundOptions(NamedTuple):
+    """Update and decision options (module docstring); validated by `check_options`, traced under jit."""
+
+    alpha: float = 0.05
+    rho: str = "alpha"
+    match_sigmas: float = 2.5
+    init_variance: float = 900.0
+    init_weight: float = 0.05
+    min_variance: float = 4.0
+    background_ratio: float = 0.7
+    decision: str = "stauffer_grimson"
+
+
+class _Opts(NamedTuple):  # the traced form of BackgroundOptions
+    alpha: jax.Array
+    use_eta: jax.Array
+    match2: jax.Array
+    init_variance: jax.Array
+    init_weight: jax.Array
+    min_variance: jax.Array
+    background_ratio: jax.Array
+    tr_rule: jax.Array
+
+
+def check_options(options: BackgroundOptions) -> _Opts:
+    """ValueError naming the field for alpha outside (0, 1], match_sigmas <= 0, variances <= 0 (or
+    init_variance < min_variance), init_weight outside (0, 1], background_ratio outside (0, 1) or an
+    unknown rho / decision."""
+    if not isinstance(options, BackgroundOptions):
+        raise ValueError(f"options: expected a BackgroundOptions, got {type(options).__name__}")
+    o = options
+    alpha = check_real(o.alpha, "alpha", min_value=0.0, max_value=1.0, exclusive_min=True)
+    lam = check_real(o.match_sigmas, "match_sigmas", min_value=0.0, exclusive_min=True)
+    v0 = check_real(o.init_variance, "init_variance", min_value=0.0, exclusive_min=True)
+    w0 = check_real(o.init_weight, "init_weight", min_value=0.0, max_value=1.0, exclusive_min=True)
+    vmin = check_real(o.min_variance, "min_variance", min_value=0.0, exclusive_min=True)
+    if v0 < vmin:
+        raise ValueError(f"init_variance: must be >= min_variance = {vmin}, got {v0}")
+    ratio = check_real(o.background_ratio, "background_ratio", min_value=0.0, max_value=1.0, exclusive_min=True)
+    if ratio >= 1.0:
+        raise ValueError(f"background_ratio: must be < 1 (the weights sum to 1), got {ratio}")
+    check_choice(o.rho, "rho", _RHO)
+    check_choice(o.decision, "decision", _DECISIONS)
+    f = jnp.float32
+    return _Opts(f(alpha), jnp.bool_(o.rho == "alpha_eta"), f(lam * lam), f(v0), f(w0), f(vmin), f(ratio),
+                 jnp.bool_(o.decision == "matched"))
+
+
+# ----------------------------------------------------------------------------------- the kernel
+def _first_best(values, eligible, larger: bool):
+    """Index (N,) of the first k with the largest (or smallest) values[k] among eligible[k], by K
+    elementwise comparisons (XLA:CPU's index-carrying reductions, argmax over a short axis, are far
+    slower than this unrolled chain); 0 where nothing is eligible."""
+    best_val, best = values[0], jnp.zeros(values[0].shape, jnp.int32)
+    found = eligible[0] | jnp.zeros(values[0].shape, bool)
+    for k in range(1, len(values)):
+        v, e = values[k], eligible[k]
+        better = e & (~found | ((v > best_val) if larger else (v < best_val)))
+        best = jnp.where(better, k, best)
+        best_val = jnp.where(better, v, best_val)
+        found = found | e
+    return best, found
+
+
+def _in_background(w, var, best, ratio):
+    """(N,) bool: component `best` (N,) is among the first B in the w / sigma order (ties: lower index
+    first), i.e. the weight ranked strictly before it is <= T (then b = its rank does not yet exceed
+    T). w, var (K, N)."""
+    K = w.shape[0]
+    key = w * jax.lax.rsqrt(var)
+    key_best = sum((jnp.where(best == k, key[k], 0.0) for k in range(1, K)), jnp.where(best == 0, key[0], 0.0))
+    ahead = sum(jnp.where((key[j] > key_best) | ((key[j] == key_best) & (j < best)), w[j], 0.0) for j in range(K))
+    return ahead <= ratio
+
+
+def _once(o: _Opts, fn, *args):
+    """fn(*args), materialised: a conditional (on alpha > 0, always true after `check_options` but
+    only known at run time; the other branch returns zeros) whose outputs XLA must store. XLA:CPU
+    drops optimization barriers before fusing, and otherwise recomputes a chain of cheap per-pixel
+    operations inside every one of its consumers, which made a frame several times slower."""
+    def never(*a):
+        return jax.tree.map(jnp.zeros_like, jax.eval_shape(fn, *a))
+
+    return jax.lax.cond(o.alpha > 0, fn, never, *args)
+
+
+def _rows_sum(a):
+    """a[0] + ... + a[K-1] for a (K, ...) array, unrolled: XLA:CPU reduces a short leading axis far
+    more slowly than it adds the rows elementwise."""
+    return sum((a[k] for k in range(1, a.shape[0])), a[0])
+
+
+def _step(w, mu, var, x, learn, o: _Opts):
+    """One frame with the pixels last: w, var (K, N), mu (K, C, N), x (C, N) float32, learn (N,)
+    bool. Returns the new (w, mu, var) and foreground (N,) bool.
+
+    Every per-component quantity is a (K, N) array computed by broadcasting (one loop for all K),
+    every choice among components an unrolled chain of K comparisons (no argmax: index-carrying
+    reductions are slow on XLA:CPU). The variance update uses |X - mu_new|^2 = (1 - rho)^2 |X - mu|^2
+    (mu_new - X = (1 - rho)(mu - X)).
+    """
+    K, C = mu.shape[:2]
+    ks = jnp.arange(K)[:, None]
+
+    def decide(w, mu, var, x):  # the match (step 1 of the module docstring)
+        d2 = _rows_sum((x[:, None, :] - jnp.moveaxis(mu, 1, 0)) ** 2)  # (K, N)
+        match = (w > 0) & (d2 < o.match2 * var)
+        key = w * jax.lax.rsqrt(var)
+        best, any_match = _first_best(key, match, larger=True)
+        worst, _ = _first_best(key, jnp.ones_like(match), larger=False)
+        return best, any_match, worst, d2
+
+    def rates(w, var, best, any_match, worst, d2):  # eq. 10's M and rho, the replacement, new weights
+        hit = (ks == best) & any_match & learn
+        replace = (ks == worst) & ~any_match & learn
+        new_w = jnp.where(replace, o.init_weight, (1.0 - o.alpha) * w + o.alpha * hit)
+        new_w = jnp.where(learn, new_w / _rows_sum(new_w), w)
+
+        def alpha_eta(d2, var):  # rho = alpha eta(X | mu, sigma^2 I), clipped to 1
+            return jnp.minimum(o.alpha * jnp.exp(-0.5 * d2 / var - 0.5 * C * jnp.log(2 * jnp.pi * var)), 1.0)
+
+        def constant(d2, var):  # the TR's rho = alpha needs no exp / log
+            return jnp.broadcast_to(o.alpha, var.shape)
+
+        rho = jnp.where(hit, jax.lax.cond(o.use_eta, alpha_eta, constant, d2, var), 0.0)
+        return new_w, hit, replace, rho
+
+    best, any_match, worst, d2 = _once(o, decide, w, mu, var, x)
+    new_w, hit, replace, rho = _once(o, rates, w, var, best, any_match, worst, d2)
+    new_mu = jnp.where(replace[:, None], x[None], mu + rho[:, None] * (x[None] - mu))
+    new_var = jnp.where(replace, o.init_variance, jnp.where(
+        hit, jnp.maximum((1.0 - rho) * var + rho * (1.0 - rho) ** 2 * d2, o.min_variance), var))
+
+    def classify(new_w, new_var, best, any_match):
+        return ~any_match | (~o.tr_rule & ~_in_background(new_w, new_var, best, o.background_ratio))
+
+    foreground = _once(o, classify, new_w, new_var, best, any_match)
+    return new_w, new_mu, new_var, foreground
+
+
+def _scan(w, mu, var, frames, masks, o: _Opts):
+    """frames (T, H, W, C) any real dtype, masks (T, H, W) bool -> state, foreground (T, N)."""
+    T, C = frames.shape[0], frames.shape[-1]
+    xs = jnp.moveaxis(frames.reshape(T, -1, C), 2, 1)  # (T, C, N), still in the input dtype
+
+    def body(carry, inp):
+        x, m = inp
+        *state, fg = _step(*carry, x.astype(jnp.float32), ~m, o)
+        return tuple(state), fg
+
+    return jax.lax.scan(body, (w, mu, var), (xs, masks.reshape(T, -1)))
+
+
+def _to_internal(state: BackgroundState):
+    H, W, K = state.weights.shape
+    return (state.weights.reshape(H * W, K).T, jnp.moveaxis(state.means.reshape(H * W, K, -1), 0, 2),
+            state.variances.reshape(H * W, K).T)
+
+
+def _to_public(w, mu, var, H, W) -> BackgroundState:
+    K = w.shape[0]
+    return BackgroundState(w.T.reshape(H, W, K), jnp.moveaxis(mu, 2, 0).reshape(H, W, K, -1),
+                           var.T.reshape(H, W, K))
+
+
+def _init(frame, K: int, o: _Opts) -> BackgroundState:
+    H, W, C = frame.shape
+    x = frame.astype(jnp.float32)
+    weights = jnp.zeros((H, W, K), jnp.float32).at[..., 0].set(1.0)
+    means = jnp.broadcast_to(x[:, :, None, :], (H, W, K, C))
+    return BackgroundState(weights, means, jnp.full((H, W, K), o.init_variance, jnp.float32))
+
+
+@jax.jit
+def _update_jit(state, frame, mask, o):
+    H, W = frame.shape[:2]
+    w, mu, var = _to_internal(state)
+    x = jnp.moveaxis(frame.reshape(H * W, -1), 1, 0).astype(jnp.float32)
+    *new, fg = _step(w, mu, var, x, ~mask.reshape(-1), o)
+    return _to_public(*new, H, W), fg.reshape(H, W)
+
+
+def _run_one(state, frames, masks, o):
+    H, W = frames.shape[1:3]
+    (w, mu, var), fg = _scan(*_to_internal(state), frames, masks, o)
+    return _to_public(w, mu, var, H, W), fg.reshape(-1, H, W)
+
+
+_run_jit = jax.jit(_run_one)
+_init_jit = jax.jit(_init, static_argnums=1)
+
+
+@partial(jax.jit, static_argnums=(3, 4))
+def _run_batch_jit(frames, masks, o, K: int, videos_per_step: int):
+    """B videos, `videos_per_step` of them vmapped together, the groups one after another (`lax.map`)."""
+    state = jax.vmap(_init, in_axes=(0, None, None))(frames[:, 0], K, o)
+    return jax.lax.map(lambda a: _run_one(*a, o), (state, frames, masks), batch_size=videos_per_step)
+
+
+# ----------------------------------------------------------------------------- boundary checks
+def _check_frames(frames, name: str, ndim: int, channels: int) -> np.ndarray:
+    arr = as_array(frames, name, ndim=ndim, dtype=None, min_value=0, max_value=255)
+    if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise ValueError(f"{name}: expected uint8 or real pixel values in [0, 255], got dtype {arr.dtype}")
+    if arr.shape[-1] != channels:
+        raise ValueError(f"{name}: expected {channels} colour channels on the last axis, got shape {arr.shape}")
+    return arr
+
+
+def _check_masks(masks, name: str, shape: tuple[int, ...]) -> np.ndarray | None:
+    if masks is None:
+        return None
+    arr = as_array(masks, name, dtype=None)
+    if arr.shape != shape:
+        raise ValueError(f"{name}: expected shape {shape} (True = do not update), got {arr.shape}")
+    if arr.dtype != bool and not np.all((arr == 0) | (arr == 1)):
+        raise ValueError(f"{name}: expected a boolean mask (or 0/1), got other values")
+    return arr.astype(bool)
+
+
+def _check_state(state, name: str, shape_hw: tuple[int, int], channels: int) -> BackgroundState:
+    if not isinstance(state, BackgroundState):
+        raise ValueError(f"{name}: expected a BackgroundState, got {type(state).__name__}")
+    H, W = shape_hw
+    K = np.shape(state.weights)[-1] if np.ndim(state.weights) == 3 else 0
+    want = ((H, W, K), (H, W, K, channels), (H, W, K))
+    got = tuple(np.shape(a) for a in state)
+    if K < 1 or got != want:
+        raise ValueError(f"{name}: expected weights, means, variances of shapes {want} for {H} x {W} frames, "
+                         f"got {got}")
+    return state
+
+
+# ------------------------------------------------------------------------------------ public API
+def init_background(first_frame: Real[ArrayLike, "H W C"], structure: BackgroundStructure = BackgroundStructure(),
+                    options: BackgroundOptions = BackgroundOptions()) -> BackgroundState:
+    """The state before any update: component 0 at the first frame (H, W, C) with weight 1 and the
+    initial variance; the other K - 1 empty (weight 0). ValueError naming the argument for a frame of
+    the wrong shape or dtype, NaN or values outside [0, 255]."""
+    frame = _check_frames(first_frame, "first_frame", 3, structure.n_channels)
+    return _init_jit(jnp.asarray(frame), structure.n_components, check_options(options))
+
+
+def update(state: BackgroundState, frame: Real[ArrayLike, "H W C"],
+           no_update_mask: Bool[ArrayLike, "H W"] | None = None,
+           options: BackgroundOptions = BackgroundOptions()) -> tuple[BackgroundState, Bool[Array, "H W"]]:
+    """One frame (H, W, C) of eqs. 9-10 -> (new state, foreground (H, W) bool). Pixels where
+    `no_update_mask` is True keep their state (they are still classified). ValueError naming the
+    argument for bad frames, masks or a state of other shapes."""
+    C = np.shape(state.means)[-1] if isinstance(state, BackgroundState) else 0
+    arr = _check_frames(frame, "frame", 3, max(C, 1))
+    _check_state(state, "state", arr.shape[:2], arr.shape[2])
+    mask = _check_masks(no_update_mask, "no_update_mask", arr.shape[:2])
+    mask = np.zeros(arr.shape[:2], bool) if mask is None else mask
+    return _update_jit(state, jnp.asarray(arr), jnp.asarray(mask), check_options(options))
+
+
+def _run(frames, no_update_masks, structure, options, ndim: int):
+    arr = _check_frames(frames, "frames", ndim, structure.n_channels)
+    masks = _check_masks(no_update_masks, "no_update_masks", arr.shape[:-1])
+    m = jnp.zeros(arr.shape[:-1], bool) if masks is None else jnp.asarray(masks)
+    return jnp.asarray(arr), m, check_options(options)
+
+
+def run_background(frames: Real[ArrayLike, "T H W C"], no_update_masks: Bool[ArrayLike, "T H W"] | None = None,
+                   structure: BackgroundStructure = BackgroundStructure(),
+                   options: BackgroundOptions = BackgroundOptions(),
+                   initial_state: BackgroundState | None = None) -> tuple[BackgroundState, Bool[Array, "T H W"]]:
+    """A video (T, H, W, C) (uint8 or real in [0, 255]) -> (final state, foreground (T, H, W) bool).
+
+    The state starts from `init_background(frames[0])` (or `initial_state`, to continue a video) and
+    every frame, the first included, is classified and then learned (`update`) as one `lax.scan`.
+    no_update_masks (T, H, W): True where a frame's pixel is not learned (TR §3.5). ValueError naming
+    the argument for frames of the wrong shape or dtype, zero frames, NaN, values outside [0, 255],
+    masks of another shape or non-boolean values, or bad options."""
+    x, m, o = _run(frames, no_update_masks, structure, options, 4)
+    if initial_state is None:
+        state = _init_jit(x[0], structure.n_components, o)
+    else:
+        state = _check_state(initial_state, "initial_state", x.shape[1:3], x.shape[3])
+    return _run_jit(state, x, m, o)
+
+
+def run_background_batch(frames: Real[ArrayLike, "B T H W C"],
+                         no_update_masks: Bool[ArrayLike, "B T H W"] | None = None,
+                         structure: BackgroundStructure = BackgroundStructure(),
+                         options: BackgroundOptions = BackgroundOptions(), videos_per_step: int | None = None
+                         ) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
+    """`run_background` for B videos of equal length (B, T, H, W, C) in one call: final states with a
+    leading B axis and foreground (B, T, H, W). Checks as `run_background`.
+
+    videos_per_step: how many videos are vmapped together (the groups run one after another in one
+    compiled `lax.map`). Default: all B on an accelerator; one on the CPU, where one video's state
+    (K (C + 2) floats per pixel) stays in the cache from frame to frame and B of them would not: a
+    vmap over all videos there gave fewer frames per second than one video at a time."""
+    x, m, o = _run(frames, no_update_masks, structure, options, 5)
+    B = x.shape[0]
+    if videos_per_step is None:
+        videos_per_step = 1 if jax.default_backend() == "cpu" else B
+    step = check_int(videos_per_step, "videos_per_step", min_value=1, max_value=B)
+    return _run_batch_jit(x, m, o, structure.n_components, step)

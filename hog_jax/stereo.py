@@ -1,0 +1,137 @@
+"""A rectified stereo camera pair: projection, triangulation and camera matrices (LfD 2009 §III-A: the
+hand and face centroids of both views give the hand-minus-face position in 3-D).
+
+Frames: points are in the *left camera frame* (metres): x to the image's right, y down, z along the
+optical axis. The right camera is the left one moved by `baseline_m` along +x (a rectified pair: the
+same intrinsics, parallel optical axes), so a point (X, Y, Z) has the right-camera coordinates
+(X - b, Y, Z). Pixels are (x, y) = (column, row) with pixel centres at integer coordinates (the
+convention of `hog_jax.blobs`); the principal point defaults to the image centre ((W - 1) / 2,
+(H - 1) / 2) in that convention, which is where a MuJoCo/OpenGL camera puts its optical axis.
+
+    x = f X / Z + cx,    y = f Y / Z + cy,    x_right = x - f b / Z        (disparity d = f b / Z)
+    Z = f b / d,         X = (x - cx) Z / f,  Y = (y - cy) Z / f           (y of the left image)
+
+Arrays: NumPy input is computed in float64 NumPy (exact, for the data generators); a `jax.Array`
+input (also inside `jit`/`vmap`) is computed with `jax.numpy` in its own dtype. Concrete inputs are
+checked (shape (..., 2) or (..., 3), finite) and a ValueError names the argument.
+"Not found" is a flag, never a clamp: a point with Z <= 0 has `in_front` False (its pixels are 0), a
+pixel pair with disparity <= 0 (or a non-finite one under `jit`) has `valid` False (its point is 0).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float
+
+from lfd_common import as_array, check_int, check_real
+
+__all__ = ["StereoCamera", "StereoProjection", "Triangulation", "camera_matrices", "project", "triangulate"]
+
+
+@dataclasses.dataclass(frozen=True)
+class StereoCamera:
+    """A rectified stereo pair: focal length (pixels), baseline (metres, right camera at +x), image
+    size (pixels) and principal point (cx, cy) in pixels (default: the image centre, see the module)."""
+
+    focal_px: float
+    baseline_m: float
+    width: int
+    height: int
+    cx: float | None = None
+    cy: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "focal_px", check_real(self.focal_px, "focal_px", min_value=0.0, exclusive_min=True))
+        object.__setattr__(self, "baseline_m",
+                           check_real(self.baseline_m, "baseline_m", min_value=0.0, exclusive_min=True))
+        object.__setattr__(self, "width", check_int(self.width, "width", min_value=1))
+        object.__setattr__(self, "height", check_int(self.height, "height", min_value=1))
+        for name, size in (("cx", self.width), ("cy", self.height)):
+            value = (size - 1) / 2.0 if getattr(self, name) is None else check_real(getattr(self, name), name)
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def from_fovy(cls, fovy_deg: float, width: int, height: int, baseline_m: float) -> StereoCamera:
+        """The pair of two cameras with MuJoCo's vertical field of view `fovy_deg`: f = (H / 2) / tan(fovy / 2)."""
+        fovy = check_real(fovy_deg, "fovy_deg", min_value=0.0, max_value=179.0, exclusive_min=True)
+        height = check_int(height, "height", min_value=1)
+        return cls(0.5 * height / math.tan(math.radians(fovy) / 2.0), baseline_m, width, height)
+
+
+class StereoProjection(NamedTuple):
+    """left, right (..., 2) pixels (x, y); in_front (...) bool, False for Z <= 0 (pixels 0 there)."""
+
+    left: Float[Array, "*batch 2"]
+    right: Float[Array, "*batch 2"]
+    in_front: Bool[Array, "*batch"]
+
+
+class Triangulation(NamedTuple):
+    """xyz (..., 3) metres in the left camera frame; valid (...) bool, False for disparity <= 0 (xyz 0)."""
+
+    xyz: Float[Array, "*batch 3"]
+    valid: Bool[Array, "*batch"]
+
+
+def _namespace(name: str, value, last: int):
+    """(array, xp): NumPy float64 for host input, jax.numpy for a jax.Array; concrete input is checked."""
+    if isinstance(value, jax.core.Tracer):
+        if value.ndim < 1 or value.shape[-1] != last:
+            raise ValueError(f"{name}: expected shape (..., {last}), got {value.shape}")
+        return value, jnp
+    checked = as_array(value, name, dtype=np.float64, nonempty=False)
+    if checked.ndim < 1 or checked.shape[-1] != last:
+        raise ValueError(f"{name}: expected shape (..., {last}), got {checked.shape}")
+    if isinstance(value, jax.Array):
+        return value, jnp
+    return checked, np
+
+
+def project(camera: StereoCamera, points: Float[ArrayLike, "*batch 3"]) -> StereoProjection:
+    """Pixels of left-camera-frame points (..., 3) in both views -> `StereoProjection` (..., 2) each."""
+    p, xp = _namespace("points", points, 3)
+    z = p[..., 2]
+    in_front = z > 0
+    safe_z = xp.where(in_front, z, 1.0)  # double where: no inf/NaN even in the discarded branch
+    x = xp.where(in_front, camera.focal_px * p[..., 0] / safe_z + camera.cx, 0.0)
+    y = xp.where(in_front, camera.focal_px * p[..., 1] / safe_z + camera.cy, 0.0)
+    shift = xp.where(in_front, camera.focal_px * camera.baseline_m / safe_z, 0.0)
+    return StereoProjection(xp.stack([x, y], axis=-1), xp.stack([x - shift, y], axis=-1), in_front)
+
+
+def triangulate(camera: StereoCamera, left_px: Float[ArrayLike, "*batch 2"],
+                right_px: Float[ArrayLike, "*batch 2"]) -> Triangulation:
+    """Points (..., 3) in the left camera frame from matching pixels (..., 2) of both views.
+
+    Depth from the disparity d = x_left - x_right (Z = f b / d), X and Y from the left pixel (the rows
+    of a rectified pair agree; the right row is not used). d <= 0 (behind the cameras or a wrong
+    match), or one so small that the depth overflows, gives `valid` False and xyz 0: never a clamped
+    depth."""
+    left, xp = _namespace("left_px", left_px, 2)
+    right, xp_right = _namespace("right_px", right_px, 2)
+    if xp_right is jnp:
+        xp = jnp
+    if left.shape != right.shape:
+        raise ValueError(f"right_px: expected the shape of left_px {left.shape}, got {right.shape}")
+    disparity = left[..., 0] - right[..., 0]
+    positive = disparity > 0  # False for NaN too
+    with np.errstate(over="ignore"):  # a subnormal disparity overflows the depth: flagged below
+        z = camera.focal_px * camera.baseline_m / xp.where(positive, disparity, 1.0)
+        scale = z / camera.focal_px
+        xyz = xp.stack([(left[..., 0] - camera.cx) * scale, (left[..., 1] - camera.cy) * scale, z], axis=-1)
+    valid = positive & xp.all(xp.isfinite(xyz), axis=-1)
+    return Triangulation(xp.where(valid[..., None], xyz, 0.0), valid)
+
+
+def camera_matrices(camera: StereoCamera) -> tuple[np.ndarray, np.ndarray]:
+    """The 3 x 4 projection matrices (float64) of the left and right camera, K [I | 0] and K [I | -b e_x],
+    mapping homogeneous left-camera-frame points to homogeneous pixels (OpenCV's `P1`, `P2` convention)."""
+    K = np.array([[camera.focal_px, 0.0, camera.cx], [0.0, camera.focal_px, camera.cy], [0.0, 0.0, 1.0]])
+    left = K @ np.hstack([np.eye(3), np.zeros((3, 1))])
+    right = K @ np.hstack([np.eye(3), np.array([[-camera.baseline_m], [0.0], [0.0]])])
+    return left, right

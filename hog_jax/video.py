@@ -1,0 +1,221 @@
+"""From RGB video to skin / person / object / background masks (LEVELSET TR §3-5): the background
+model, the colour models and the competing level sets put together, and the stereo pipeline to the
+hand-minus-face position (LfD 2009 §III-A).
+
+Shapes: B videos (optional leading axis), T frames, H x W pixels; R = 4 regions in `REGIONS` order,
+whose index is the label (-1: no region, a boundary pixel, TR §3.2).
+
+The region scores e_i(x) of eq. 7 (TR §3.2-3.6), all log-densities of the pixel's RGB / 255 in the
+unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
+
+* skin: the skin GMM (TR §3.3: 4 components), fitted in advance on skin pixels (`fit_skin`);
+* person, background: the GMMs learnt at the start of each recording, sizes by BIC (TR §3.4,
+  `colour_models.fit_person_background_models`), from the frames just before `start`, whose moving
+  pixels (the Stauffer–Grimson foreground, TR §3.5) are the person;
+* background also loses `motion_penalty` nats where the background model sees motion: a moving
+  pixel is not background whatever its colour (the objects stood on the table while the background
+  was learnt, so their colours are in the background GMM);
+* object (TR §3.6, §4: "pixels that are not matched to any of our three models, and that are
+  moving"): the uniform density on the colour cube (log 1 = 0) plus `object_margin`, on moving
+  pixels only (a large negative score elsewhere). A moving pixel whose every model density is below the uniform one
+  is an unrecognised object.
+
+The TR's background model does not update pixels that belong to the person or a tracked object
+(TR §3.5), so that a person sitting still is not absorbed into the background. The no-update mask
+here is the colour models' own per-pixel decision from `start` on: a pixel whose person or skin
+density beats the background density. (The TR takes it from the frame's segmentation, an online
+loop; the colour decision is available before the level sets run, so the background model and the
+level sets are each one vectorised `lax.scan` over the video.)
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int, Key, Real
+
+from hog_jax._checks import check_key
+from hog_jax.background import BackgroundOptions, BackgroundStructure, run_background, run_background_batch
+from hog_jax.colour_models import ColourFit, fit_person_background_models
+from hog_jax.levelset import LevelSetOptions, LevelSetStructure, segment_video
+from hog_jax.segment import GMM, fit_gmm, gmm_log_prob, median3
+from hog_jax.stereo import StereoCamera
+from hog_jax.tracks import HandFacePositions, hand_face_positions
+from lfd_common import as_array, check_int, check_real
+
+__all__ = ["REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
+           "fit_video_models", "region_scores", "segment_recording", "segment_stereo"]
+
+REGIONS = ("background", "person", "skin", "object")
+BACKGROUND, PERSON, SKIN, OBJECT = range(4)
+# The object score of a pixel that does not move: far below any other region's (the level sets floor
+# scores at the best minus their max_log_ratio), finite so that averaging it to the coarse scale stays
+# finite.
+_NOT_MOVING = -1e4
+
+
+class VideoModels(NamedTuple):
+    """The three colour mixtures over RGB / 255 (each a `segment.GMM` with P = 3)."""
+
+    skin: GMM
+    person: GMM
+    background: GMM
+
+
+class VideoOptions(NamedTuple):
+    """motion_penalty (nats, >= 0) and object_margin (nats) of the region scores (module docstring);
+    the background model's and the level sets' options; person_frames: how many frames before
+    `start` teach the person and background GMMs."""
+
+    motion_penalty: float = 4.0
+    object_margin: float = 0.0
+    person_frames: int = 10
+    background: BackgroundOptions = BackgroundOptions()
+    levelset: LevelSetOptions = LevelSetOptions()
+
+
+class VideoSegmentation(NamedTuple):
+    """labels (.., T, H, W) int8 in `REGIONS` order (-1: boundary); frames before `start` carry the
+    training phase's answer (1 where the background model sees motion, else 0). foreground
+    (.., T, H, W) bool: the background model's motion mask of the final pass. iterations (.., T) int32:
+    level-set iterations at the fine scale (0 before `start`); converged (.., T) bool."""
+
+    labels: Int[Array, "*T H W"]
+    foreground: Bool[Array, "*T H W"]
+    iterations: Int[Array, "*T"]
+    converged: Bool[Array, "*T"]
+
+
+class StereoSegmentation(NamedTuple):
+    """Both views' `VideoSegmentation` and the tracked hand-minus-face positions (`tracks`)."""
+
+    left: VideoSegmentation
+    right: VideoSegmentation
+    positions: HandFacePositions
+
+
+def _unit_rgb(frames):
+    return jnp.asarray(frames, jnp.float32) / 255.0
+
+
+def fit_skin(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], n_components: int = 4, n_iter: int = 100) -> GMM:
+    """The skin GMM of TR §3.3 (4 components by default) over RGB / 255 of skin pixels (N, 3) in
+    [0, 255], by `segment.fit_gmm`. ValueError naming the argument."""
+    x = as_array(skin_rgb, "skin_rgb", shape=(None, 3), min_value=0, max_value=255)
+    return fit_gmm(key, np.asarray(x, np.float32) / 255.0, n_components=n_components, n_iter=n_iter)
+
+
+def _check_frames(frames, name: str, ndims=(4,)) -> np.ndarray:
+    arr = as_array(frames, name, ndim=ndims, dtype=None, min_value=0, max_value=255)
+    if arr.shape[-1] != 3 or arr.shape[-4] == 0:
+        raise ValueError(f"{name}: expected (..., T, H, W, 3) RGB frames with T >= 1, got shape {arr.shape}")
+    return arr
+
+
+def _check_start(start, n_frames: int, person_frames: int) -> int:
+    return check_int(start, "start", min_value=person_frames + 1, max_value=n_frames - 1)
+
+
+def fit_video_models(key: Key[Array, ""], skin: GMM, frames: Real[ArrayLike, "T H W 3"], start: int,
+                     options: VideoOptions = VideoOptions(), candidates=(1, 2, 3, 4, 5),
+                     max_pixels: int = 20000) -> tuple[VideoModels, ColourFit]:
+    """The recording's colour models (TR §3.4): the Stauffer–Grimson model runs over frames[:start];
+    its foreground in the `options.person_frames` frames before `start` (median-filtered) is the
+    person, the rest the background; both GMMs chosen by BIC over `candidates`. Returns the models
+    and the BIC fit. ValueError naming the argument (`start` must leave at least one empty frame
+    before the person frames)."""
+    check_key(key, "key")
+    arr = _check_frames(frames, "frames")
+    n = check_int(options.person_frames, "person_frames", min_value=1)
+    start = _check_start(start, arr.shape[0] + 1, n)
+    _, foreground = run_background(arr[:start], options=options.background)
+    person = np.asarray(median3(foreground[start - n:start]))
+    fit = fit_person_background_models(key, arr[start - n:start], person, candidates=candidates,
+                                       max_pixels=max_pixels, space="rgb")
+    return VideoModels(skin, fit.models.person, fit.models.background), fit
+
+
+@jax.jit
+def _scores(models: VideoModels, frames, foreground, motion_penalty, object_margin):
+    x = _unit_rgb(frames)
+    moving = foreground.astype(jnp.float32)
+    background = gmm_log_prob(models.background, x) - motion_penalty * moving
+    person = gmm_log_prob(models.person, x)
+    skin = gmm_log_prob(models.skin, x)
+    unmatched = jnp.where(foreground, object_margin, _NOT_MOVING)
+    return jnp.stack([background, person, skin, unmatched], axis=-3)
+
+
+def region_scores(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], foreground: Bool[ArrayLike, "*T H W"],
+                  options: VideoOptions = VideoOptions()) -> Float[Array, "*T 4 H W"]:
+    """e_i(x) of the four regions (module docstring) for frames (.., T, H, W, 3) in [0, 255] and the
+    background model's foreground (.., T, H, W). ValueError naming the argument."""
+    arr = _check_frames(frames, "frames", ndims=(4, 5))
+    fg = as_array(foreground, "foreground", shape=arr.shape[:-1], dtype=None)
+    penalty = check_real(options.motion_penalty, "motion_penalty", min_value=0.0)
+    margin = check_real(options.object_margin, "object_margin")
+    return _scores(models, jnp.asarray(arr), jnp.asarray(fg, bool), jnp.float32(penalty), jnp.float32(margin))
+
+
+def _coarse(shape: tuple[int, int]) -> tuple[int, int] | None:
+    """TR §5's coarse scale, a quarter of each side (60 x 80 for 240 x 320), from 240 x 320 up;
+    smaller frames use one scale (a hand of a few pixels would vanish at a quarter of their size)."""
+    H, W = shape
+    return (H // 4, W // 4) if H % 4 == 0 and W % 4 == 0 and min(H, W) >= 240 else None
+
+
+@jax.jit
+def _labels_before(foreground):
+    return jnp.where(foreground, jnp.int8(PERSON), jnp.int8(BACKGROUND))
+
+
+@jax.jit
+def _person_coloured(models: VideoModels, frames):
+    x = _unit_rgb(frames)
+    background = gmm_log_prob(models.background, x)
+    return (gmm_log_prob(models.person, x) > background) | (gmm_log_prob(models.skin, x) > background)
+
+
+def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], start: int,
+                      options: VideoOptions = VideoOptions()) -> VideoSegmentation:
+    """Masks of a video (T, H, W, 3) or a batch of videos (B, T, H, W, 3) (uint8 or real in [0, 255])
+    whose segmentation phase begins at frame `start` (the frames before it: the empty scene, then
+    the person entering, TR §3). The background model runs over all frames, not updating the
+    person-coloured pixels from `start` on (module docstring); the level sets warm-start from frame
+    to frame. ValueError naming the argument."""
+    arr = _check_frames(frames, "frames", ndims=(4, 5))
+    batched = arr.ndim == 5
+    start = _check_start(start, arr.shape[-4], 0)
+    x = jnp.asarray(arr)
+    no_update = _person_coloured(models, x).at[..., :start, :, :].set(False)
+    run = run_background_batch if batched else run_background
+    _, fg = run(x, no_update, BackgroundStructure(), options.background)
+    scores = region_scores(models, x[..., start:, :, :, :], fg[..., start:, :, :], options)
+    shape = tuple(arr.shape[-3:-1])
+    result = segment_video(LevelSetStructure(len(REGIONS), shape, _coarse(shape)), scores, options=options.levelset)
+    before = _labels_before(fg[..., :start, :, :])
+    pad = jnp.zeros(before.shape[:-2], jnp.int32)
+    return VideoSegmentation(jnp.concatenate([before, result.labels.astype(jnp.int8)], axis=-3), fg,
+                             jnp.concatenate([pad, result.iterations], axis=-1),
+                             jnp.concatenate([pad.astype(bool), result.converged], axis=-1))
+
+
+def segment_stereo(models: VideoModels, left: Real[ArrayLike, "T H W 3"], right: Real[ArrayLike, "T H W 3"],
+                   start: int, camera: StereoCamera, options: VideoOptions = VideoOptions(),
+                   **tracking) -> StereoSegmentation:
+    """The pipeline of issue 18: stereo frames (T, H, W, 3) -> masks of both views (one batched
+    `segment_recording`) -> skin blobs tracked as hand and face, objects tracked (`tracks`) -> the
+    hand-minus-face position in the left image (2-D) and triangulated (3-D). `tracking`: keyword
+    options of `tracks.hand_face_positions`. ValueError naming the argument (a pair of other sizes:
+    `right`)."""
+    a = _check_frames(left, "left")
+    b = _check_frames(right, "right")
+    if a.shape != b.shape:
+        raise ValueError(f"right: expected the shape of left {a.shape}, got {b.shape}")
+    both = segment_recording(models, np.stack([a, b]), start, options)
+    views = jax.tree.map(lambda v: v[0], both), jax.tree.map(lambda v: v[1], both)
+    labels = np.asarray(both.labels)
+    positions = hand_face_positions(labels[0], labels[1], camera, skin_label=SKIN, object_label=OBJECT, **tracking)
+    return StereoSegmentation(*views, positions)

@@ -1,0 +1,81 @@
+"""hog_jax.video: the background model, colour models and level sets put together, on a tiny synthetic
+recording whose regions are known (an empty textured scene, then a 'person' block with a 'skin' patch
+that moves), and its boundary checks."""
+import jax
+import numpy as np
+import pytest
+
+import hog_jax
+from hog_jax.video import BACKGROUND, OBJECT, PERSON, SKIN
+
+H, W, T, START = 24, 32, 16, 10
+SKIN_RGB, PERSON_RGB = np.array([200.0, 140.0, 110.0]), np.array([40.0, 60.0, 170.0])
+
+
+def _scene(seed=0):
+    """frames (T, H, W, 3) uint8 and the true labels (T, H, W): background texture; from frame 4 a
+    person block entering from the right, with a skin patch that moves down."""
+    rng = np.random.default_rng(seed)
+    base = np.where((np.add.outer(np.arange(H) // 4, np.arange(W) // 4) % 2)[..., None] == 1, 150.0, 100.0)
+    base = np.broadcast_to(base, (H, W, 3))
+    frames, labels = [], []
+    for t in range(T):
+        img, lab = base.copy(), np.zeros((H, W), np.int8)
+        if t >= 4:
+            left = max(W - 4 * (t - 3), 12)
+            img[4:22, left:left + 12] = PERSON_RGB
+            lab[4:22, left:left + 12] = PERSON
+            top = 6 + (t - START) // 2 if t >= START else 6
+            img[top:top + 5, left + 3:left + 8] = SKIN_RGB
+            lab[top:top + 5, left + 3:left + 8] = SKIN
+        frames.append(np.clip(img + rng.normal(0, 3, img.shape), 0, 255).astype(np.uint8))
+        labels.append(lab)
+    return np.stack(frames), np.stack(labels)
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    frames, labels = _scene()
+    rng = np.random.default_rng(1)
+    skin = hog_jax.fit_skin(jax.random.key(0), np.clip(SKIN_RGB + rng.normal(0, 4, (400, 3)), 0, 255))
+    models, fit = hog_jax.fit_video_models(jax.random.key(1), skin, frames, START,
+                                           hog_jax.VideoOptions(person_frames=4), candidates=(1, 2))
+    return frames, labels, models, fit
+
+
+def test_segment_recording_recovers_person_and_skin(fitted):
+    frames, labels, models, _ = fitted
+    seg = hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(person_frames=4))
+    assert seg.labels.shape == (T, H, W) and seg.foreground.shape == (T, H, W)
+    ours = np.asarray(seg.labels)[START:]
+    truth = labels[START:]
+    for region in (BACKGROUND, PERSON, SKIN):
+        inter = ((ours == region) & (truth == region)).sum()
+        union = ((ours == region) | (truth == region)).sum()
+        assert inter / union > 0.8, (hog_jax.REGIONS[region], inter / union)
+    assert not (ours == OBJECT).any()  # nothing moves that the models do not explain
+    assert np.all(np.asarray(seg.iterations)[:START] == 0) and np.all(np.asarray(seg.iterations)[START:] >= 1)
+
+
+def test_region_scores_and_bad_input(fitted):
+    frames, _, models, _ = fitted
+    fg = np.zeros(frames.shape[:3], bool)
+    fg[:, :4, :4] = True
+    scores = np.asarray(hog_jax.region_scores(models, frames, fg))
+    assert scores.shape == (T, 4, H, W) and np.all(np.isfinite(scores))
+    # a moving pixel loses motion_penalty of its background score and may become an object
+    still = np.asarray(hog_jax.region_scores(models, frames, np.zeros_like(fg)))
+    np.testing.assert_allclose(still[:, BACKGROUND] - scores[:, BACKGROUND], 4.0 * fg, atol=1e-4)
+    assert np.all(scores[:, OBJECT][fg] == 0.0) and np.all(scores[:, OBJECT][~fg] < -1e3)
+    with pytest.raises(ValueError, match="frames"):
+        hog_jax.segment_recording(models, frames[..., :2], START)
+    with pytest.raises(ValueError, match="frames"):
+        hog_jax.segment_recording(models, np.full_like(frames, np.nan, dtype=float), START)
+    with pytest.raises(ValueError, match="start"):
+        hog_jax.segment_recording(models, frames, T)
+    with pytest.raises(ValueError, match="foreground"):
+        hog_jax.region_scores(models, frames, fg[:-1])
+    with pytest.raises(ValueError, match="right"):
+        hog_jax.segment_stereo(models, frames, frames[:, :-1], START, hog_jax.StereoCamera(30.0, 0.12, W, H))
+    with pytest.raises(ValueError, match="start"):
+        hog_jax.fit_video_models(jax.random.key(0), models.skin, frames, 3, hog_jax.VideoOptions(person_frames=4))
