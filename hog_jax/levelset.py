@@ -125,7 +125,11 @@ class LevelSetOptions(NamedTuple):
     it_min, it_max: iteration range per scale (0 <= it_min <= it_max, it_max >= 1). patience:
     consecutive unchanged iterations that stop the loop (>= 1). max_log_ratio: score floor below the
     pixel's best score (> 0). refit_every: iterations between re-estimates of score models that
-    depend on the partition (`levelset_grey`; >= 1; fixed scores ignore it).
+    depend on the partition (`levelset_grey`; >= 1; fixed scores ignore it). reseed_margin: a region
+    absent from the previous frame has no front and cannot come back by itself (module docstring);
+    where a region's score beats every other by more than this many nats, its level set is set to
+    +epsilon (the others to -epsilon) before the fine scale evolves, a seed that the flow then grows
+    or removes (TR §3.7's "add small curves"; None, the default, never re-seeds).
     """
 
     alpha: float = 1.0
@@ -138,6 +142,7 @@ class LevelSetOptions(NamedTuple):
     patience: int = 5
     max_log_ratio: float = 10.0
     refit_every: int = 5
+    reseed_margin: float | None = None
 
 
 class LevelSetResult(NamedTuple):
@@ -174,7 +179,8 @@ def check_options(options: LevelSetOptions) -> LevelSetOptions:
         f32(alpha), f32(mu), f32(eps), f32(dt), f32(check_real(o.tol, "tol", min_value=0.0)), i32(it_min),
         i32(it_max), i32(check_int(o.patience, "patience", min_value=1)),
         f32(check_real(o.max_log_ratio, "max_log_ratio", min_value=0.0, exclusive_min=True)),
-        i32(check_int(o.refit_every, "refit_every", min_value=1)))
+        i32(check_int(o.refit_every, "refit_every", min_value=1)),
+        f32(np.inf if o.reseed_margin is None else check_real(o.reseed_margin, "reseed_margin", min_value=0.0)))
 
 
 def _dt_limit(alpha, mu, eps):
@@ -273,7 +279,7 @@ def _frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) -> Leve
 
     data = model.prepare(data, o)
     if structure.coarse is None:
-        phi = start(data, lambda: phi_prev)
+        phi = _reseed(start(data, lambda: phi_prev), model.scores(data, phi_prev, o), o)
         phi, it, conv = _run(phi, data, model, o, o.alpha)
         it_c = jnp.int32(0)
     else:
@@ -281,9 +287,17 @@ def _frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) -> Leve
         small = resize(data, structure.coarse)
         phi = start(small, lambda: resize(phi_prev, structure.coarse) / s)
         phi, it_c, _ = _run(phi, small, model, o, o.alpha / s)
-        phi = resize(phi, structure.shape) * s
+        phi = _reseed(resize(phi, structure.shape) * s, model.scores(data, phi, o), o)
         phi, it, conv = _run(phi, data, model, o, o.alpha)
     return LevelSetResult(labels_of(phi), phi, it, it_c, conv)
+
+
+def _reseed(phi, e, o):
+    """Seeds of `reseed_margin` (LevelSetOptions): phi_i >= epsilon where region i wins by the margin,
+    phi_j <= -epsilon there for the others."""
+    wins = e - max_others(e) > o.reseed_margin
+    beaten = max_others(wins.astype(jnp.float32)) > 0
+    return jnp.where(wins, jnp.maximum(phi, o.epsilon), jnp.where(beaten, jnp.minimum(phi, -o.epsilon), phi))
 
 
 @partial(jax.jit, static_argnames=("structure", "model", "batched", "frames"))

@@ -67,13 +67,15 @@ class VideoModels(NamedTuple):
 class VideoOptions(NamedTuple):
     """motion_penalty (nats, >= 0) and object_margin (nats) of the region scores (module docstring);
     the background model's and the level sets' options; person_frames: how many frames before
-    `start` teach the person and background GMMs."""
+    `start` teach the person and background GMMs. The level sets re-seed a region where its score
+    beats every other by 3 nats (`LevelSetOptions.reseed_margin`): a hand hidden in one frame comes
+    back in the next."""
 
     motion_penalty: float = 4.0
     object_margin: float = 0.0
     person_frames: int = 10
     background: BackgroundOptions = BackgroundOptions()
-    levelset: LevelSetOptions = LevelSetOptions()
+    levelset: LevelSetOptions = LevelSetOptions(reseed_margin=3.0)
 
 
 class VideoSegmentation(NamedTuple):
