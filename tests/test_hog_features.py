@@ -160,7 +160,9 @@ def test_global_normalisation_invariant_to_contrast_and_offset(scale, offset, se
     img = smooth_images(np.random.default_rng(seed), 1, 16, 16)[0]
     a = np.asarray(hog(img))
     b = np.asarray(hog(img * scale + offset))
-    np.testing.assert_allclose(a, b, atol=2e-5)
+    # float32 rounds img * scale + offset to ~eps32 * offset; relative to the contrast (scale) that
+    # is the error the gradients inherit (offset 32 at scale 0.05: differences of 4e-3 measured)
+    np.testing.assert_allclose(a, b, atol=2e-5 + 1e-5 * offset / scale)
     assert np.allclose([a[:64].sum(), a[64:80].sum(), a[80:].sum()], 1.0, atol=1e-5)  # each level sums to 1
 
 
