@@ -217,9 +217,11 @@ def _check_video(frames, name: str) -> np.ndarray:
 def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T H W 3"],
                                  person_masks: Bool[ArrayLike, "T H W"], candidates: Sequence[int] = (1, 2, 3, 4, 5),
                                  max_pixels: int = 20000, space: str = "rgb", n_iter: int = 100, n_init: int = 3,
-                                 reg: float = 1e-5, param_count: str = "exact") -> ColourFit:
+                                 reg: float = 1e-5, param_count: str = "exact",
+                                 ignore: Bool[ArrayLike, "T H W"] | None = None) -> ColourFit:
     """Person and background GMMs from RGB frames (T, H, W, 3) in [0, 255] (those after the person has
     entered) and the person's pixels (T, H, W) bool (TR §3.4), each with its size chosen by BIC.
+    `ignore` (T, H, W) bool: pixels that teach neither model (e.g. the skin, which has its own).
 
     Each region is subsampled without replacement to n = min(max_pixels, person pixels, background
     pixels) pixels. ValueError naming the argument for bad frames, masks of another shape or with
@@ -233,12 +235,13 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
     if masks.dtype != bool and not np.all((masks == 0) | (masks == 1)):
         raise ValueError("person_masks: expected a boolean mask (or 0/1), got other values")
     masks = masks.astype(bool)
+    keep = np.ones_like(masks) if ignore is None else ~as_array(ignore, "ignore", shape=masks.shape, dtype=bool)
     cands = _check_candidates(candidates)
     n_max = check_int(max_pixels, "max_pixels", min_value=1)
     check_choice(space, "space", tuple(_SPACES))
     _check_fit_options(n_iter, n_init, reg, param_count)
     flat = arr.reshape(-1, 3)
-    regions = [np.flatnonzero(masks.reshape(-1)), np.flatnonzero(~masks.reshape(-1))]
+    regions = [np.flatnonzero((masks & keep).reshape(-1)), np.flatnonzero((~masks & keep).reshape(-1))]
     n = min(n_max, *(len(r) for r in regions))
     need = gmm_n_params(cands[-1], _SPACES[space], param_count)
     if n <= need:

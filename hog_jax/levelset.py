@@ -53,8 +53,9 @@ Choices (each documented where it is made):
   checkerboard (Chan-Vese's start) is what `levelset_grey` uses instead, where no scores exist yet.
 * Warm start (TR §3.7): frame t + 1 starts from frame t's level sets (`segment_video`, a lax.scan),
   downsampled by s to start the coarse scale. A region absent from frame t (phi_i < -epsilon
-  everywhere) has no front and cannot reappear by itself; pass phi0 from `init_level_sets` or a
-  tracker's prediction to re-seed it.
+  everywhere) has no front and cannot reappear by itself, and a pixel that every region has left
+  stays unclaimed; `reseed_margin` re-seeds both from the scores, or pass phi0 from
+  `init_level_sets` or a tracker's prediction.
 * Output labels: argmax of phi_i among the positive ones, -1 where none is positive (TR §3.2:
   those pixels lie on region boundaries).
 
@@ -126,10 +127,11 @@ class LevelSetOptions(NamedTuple):
     consecutive unchanged iterations that stop the loop (>= 1). max_log_ratio: score floor below the
     pixel's best score (> 0). refit_every: iterations between re-estimates of score models that
     depend on the partition (`levelset_grey`; >= 1; fixed scores ignore it). reseed_margin: a region
-    absent from the previous frame has no front and cannot come back by itself (module docstring);
-    where a region's score beats every other by more than this many nats, its level set is set to
-    +epsilon (the others to -epsilon) before the fine scale evolves, a seed that the flow then grows
-    or removes (TR §3.7's "add small curves"; None, the default, never re-seeds).
+    absent from the previous frame has no front and cannot come back by itself, and a pixel no level
+    set claims stays unclaimed (module docstring); where a region's score beats every other by more
+    than this many nats and the warm start does not give it the pixel, the frame's first scale starts
+    from the re-seeded partition instead (`_reseed`), which the flow then grows or removes (TR §3.7's
+    "add small curves"; None, the default, never re-seeds).
     """
 
     alpha: float = 1.0
@@ -197,8 +199,14 @@ def clip_scores(e, max_log_ratio):
 
 def partition_sdf(e):
     """Signed distances (as `signed_distance`) of the regions of the argmax partition of scores
-    e (R, h, w) -> (R, h, w). Outside a region lie the others, so R distance transforms suffice."""
-    masks = jnp.argmax(e, axis=0) == jnp.arange(e.shape[0])[:, None, None]
+    e (R, h, w) -> (R, h, w)."""
+    return labels_sdf(jnp.argmax(e, axis=0), e.shape[0])
+
+
+def labels_sdf(labels, n_regions: int):
+    """Signed distances (R, h, w) of the regions of a partition `labels` (h, w) in [0, R). Outside a
+    region lie the others, so R distance transforms suffice."""
+    masks = labels == jnp.arange(n_regions)[:, None, None]
     dist = jnp.sqrt(sq_edt(masks)) - 0.5  # to each region
     return jnp.where(masks, -max_others(-dist), -dist)
 
@@ -279,25 +287,32 @@ def _frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) -> Leve
 
     data = model.prepare(data, o)
     if structure.coarse is None:
-        phi = _reseed(start(data, lambda: phi_prev), model.scores(data, phi_prev, o), o)
+        phi = start(data, lambda: phi_prev)
+        phi = _reseed(phi, model.scores(data, phi, o), o)
         phi, it, conv = _run(phi, data, model, o, o.alpha)
         it_c = jnp.int32(0)
     else:
         s = structure.scale
         small = resize(data, structure.coarse)
         phi = start(small, lambda: resize(phi_prev, structure.coarse) / s)
+        phi = _reseed(phi, model.scores(small, phi, o), o)
         phi, it_c, _ = _run(phi, small, model, o, o.alpha / s)
-        phi = _reseed(resize(phi, structure.shape) * s, model.scores(data, phi, o), o)
-        phi, it, conv = _run(phi, data, model, o, o.alpha)
+        phi, it, conv = _run(resize(phi, structure.shape) * s, data, model, o, o.alpha)
     return LevelSetResult(labels_of(phi), phi, it, it_c, conv)
 
 
 def _reseed(phi, e, o):
-    """Seeds of `reseed_margin` (LevelSetOptions): phi_i >= epsilon where region i wins by the margin,
-    phi_j <= -epsilon there for the others."""
-    wins = e - max_others(e) > o.reseed_margin
-    beaten = max_others(wins.astype(jnp.float32)) > 0
-    return jnp.where(wins, jnp.maximum(phi, o.epsilon), jnp.where(beaten, jnp.minimum(phi, -o.epsilon), phi))
+    """The seeds of `reseed_margin` (LevelSetOptions) at the first scale of a frame: where a region's
+    score beats every other's by the margin and the level sets do not give it that pixel, the pixel
+    joins it; pixels no region claims join their best-scoring region; and, if any pixel was
+    re-seeded, every phi_i restarts as the signed distance of that partition (`labels_sdf`: a seed
+    pasted into phi without its distance function is a spike that eq. 11's Laplacian flattens in
+    one step). Without seeds phi is unchanged."""
+    labels = labels_of(phi)
+    best = jnp.argmax(e, axis=0)
+    seeds = (jnp.max(e - max_others(e), axis=0) > o.reseed_margin) & (labels != best)
+    partition = jnp.where(seeds | (labels < 0), best, labels)
+    return jax.lax.cond(jnp.any(seeds), lambda: labels_sdf(partition, phi.shape[0]), lambda: phi)
 
 
 @partial(jax.jit, static_argnames=("structure", "model", "batched", "frames"))

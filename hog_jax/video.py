@@ -11,7 +11,10 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
 * skin: the skin GMM (TR §3.3: 4 components), fitted in advance on skin pixels (`fit_skin`);
 * person, background: the GMMs learnt at the start of each recording, sizes by BIC (TR §3.4,
   `colour_models.fit_person_background_models`), from the frames just before `start`, whose moving
-  pixels (the Stauffer–Grimson foreground, TR §3.5) are the person;
+  pixels (the Stauffer–Grimson foreground, TR §3.5) are the person. Pixels the skin model matches
+  (TR §3.6's per-model threshold: a skin density at least that of `skin_match_quantile` of the skin
+  model's own draws) teach neither model: skin is a region of its own, and a person model that had
+  learnt this person's face and arms would outscore the generic skin model on them;
 * background also loses `motion_penalty` nats where the background model sees motion: a moving
   pixel is not background whatever its colour (the objects stood on the table while the background
   was learnt, so their colours are in the background GMM);
@@ -67,13 +70,15 @@ class VideoModels(NamedTuple):
 class VideoOptions(NamedTuple):
     """motion_penalty (nats, >= 0) and object_margin (nats) of the region scores (module docstring);
     the background model's and the level sets' options; person_frames: how many frames before
-    `start` teach the person and background GMMs. The level sets re-seed a region where its score
+    `start` teach the person and background GMMs; skin_match_quantile in (0, 1): the skin model's
+    match threshold (module docstring). The level sets re-seed a region where its score
     beats every other by 3 nats (`LevelSetOptions.reseed_margin`): a hand hidden in one frame comes
     back in the next."""
 
     motion_penalty: float = 4.0
     object_margin: float = 0.0
     person_frames: int = 10
+    skin_match_quantile: float = 0.1
     background: BackgroundOptions = BackgroundOptions()
     levelset: LevelSetOptions = LevelSetOptions(reseed_margin=3.0)
 
@@ -116,6 +121,18 @@ def _check_frames(frames, name: str, ndims=(4,)) -> np.ndarray:
     return arr
 
 
+def skin_threshold(skin: GMM, quantile: float, n_draws: int = 20000, seed: int = 0) -> float:
+    """The log-density above which a colour is matched by `skin` (TR §3.6): the `quantile` of the
+    model's log-densities at `n_draws` of its own draws (0.1: its 90 % highest-density region)."""
+    q = check_real(quantile, "skin_match_quantile", min_value=0.0, max_value=1.0, exclusive_min=True)
+    rng = np.random.default_rng(seed)
+    weights = np.exp(np.asarray(skin.log_weights, np.float64))
+    component = rng.choice(len(weights), n_draws, p=weights / weights.sum())
+    z = rng.standard_normal((n_draws, skin.means.shape[-1]))
+    draws = np.asarray(skin.means)[component] + np.einsum("nij,nj->ni", np.asarray(skin.chols)[component], z)
+    return float(np.quantile(np.asarray(gmm_log_prob(skin, jnp.asarray(draws, jnp.float32))), q))
+
+
 def _check_start(start, n_frames: int, person_frames: int) -> int:
     return check_int(start, "start", min_value=person_frames + 1, max_value=n_frames - 1)
 
@@ -125,7 +142,8 @@ def fit_video_models(key: Key[Array, ""], skin: GMM, frames: Real[ArrayLike, "T 
                      max_pixels: int = 20000) -> tuple[VideoModels, ColourFit]:
     """The recording's colour models (TR §3.4): the Stauffer–Grimson model runs over frames[:start];
     its foreground in the `options.person_frames` frames before `start` (median-filtered) is the
-    person, the rest the background; both GMMs chosen by BIC over `candidates`. Returns the models
+    person, the rest the background, both without the pixels the skin model matches
+    (`skin_threshold`); both GMMs chosen by BIC over `candidates`. Returns the models
     and the BIC fit. ValueError naming the argument (`start` must leave at least one empty frame
     before the person frames)."""
     check_key(key, "key")
@@ -134,20 +152,40 @@ def fit_video_models(key: Key[Array, ""], skin: GMM, frames: Real[ArrayLike, "T 
     start = _check_start(start, arr.shape[0] + 1, n)
     _, foreground = run_background(arr[:start], options=options.background)
     person = np.asarray(median3(foreground[start - n:start]))
-    fit = fit_person_background_models(key, arr[start - n:start], person, candidates=candidates,
-                                       max_pixels=max_pixels, space="rgb")
+    frames_n = arr[start - n:start]
+    skin_like = np.asarray(gmm_log_prob(skin, _unit_rgb(frames_n))) >= skin_threshold(skin, options.skin_match_quantile)
+    fit = fit_person_background_models(key, frames_n, person, candidates=candidates, max_pixels=max_pixels,
+                                       space="rgb", ignore=skin_like)
     return VideoModels(skin, fit.models.person, fit.models.background), fit
 
 
 @jax.jit
-def _scores(models: VideoModels, frames, foreground, motion_penalty, object_margin):
-    x = _unit_rgb(frames)
-    moving = foreground.astype(jnp.float32)
-    background = gmm_log_prob(models.background, x) - motion_penalty * moving
-    person = gmm_log_prob(models.person, x)
-    skin = gmm_log_prob(models.skin, x)
+def _colour_log_densities(models: VideoModels, frames):
+    """(.., T, H, W, 3) in [0, 255] -> (.., T, 3, H, W): background, person and skin log-densities,
+    frame by frame (`lax.map`: one frame's (H, W, G, 3) intermediates stay in cache, where the whole
+    video's would not)."""
+    flat = frames.reshape(-1, *frames.shape[-3:])
+
+    def one(frame):
+        x = _unit_rgb(frame)
+        return jnp.stack([gmm_log_prob(models.background, x), gmm_log_prob(models.person, x),
+                          gmm_log_prob(models.skin, x)])
+
+    return jax.lax.map(one, flat).reshape(*frames.shape[:-3], 3, *frames.shape[-3:-1])
+
+
+@jax.jit
+def _scores(densities, foreground, motion_penalty, object_margin):
+    """Region scores (.., T, 4, H, W) from `_colour_log_densities` and the motion mask (.., T, H, W)."""
+    background = densities[..., 0, :, :] - motion_penalty * foreground.astype(jnp.float32)
     unmatched = jnp.where(foreground, object_margin, _NOT_MOVING)
-    return jnp.stack([background, person, skin, unmatched], axis=-3)
+    return jnp.stack([background, densities[..., 1, :, :], densities[..., 2, :, :], unmatched], axis=-3)
+
+
+def _checked_margins(options: VideoOptions):
+    penalty = check_real(options.motion_penalty, "motion_penalty", min_value=0.0)
+    margin = check_real(options.object_margin, "object_margin")
+    return jnp.float32(penalty), jnp.float32(margin)
 
 
 def region_scores(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], foreground: Bool[ArrayLike, "*T H W"],
@@ -156,9 +194,8 @@ def region_scores(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], fore
     background model's foreground (.., T, H, W). ValueError naming the argument."""
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     fg = as_array(foreground, "foreground", shape=arr.shape[:-1], dtype=None)
-    penalty = check_real(options.motion_penalty, "motion_penalty", min_value=0.0)
-    margin = check_real(options.object_margin, "object_margin")
-    return _scores(models, jnp.asarray(arr), jnp.asarray(fg, bool), jnp.float32(penalty), jnp.float32(margin))
+    densities = _colour_log_densities(models, jnp.asarray(arr))
+    return _scores(densities, jnp.asarray(fg, bool), *_checked_margins(options))
 
 
 def _coarse(shape: tuple[int, int]) -> tuple[int, int] | None:
@@ -174,10 +211,9 @@ def _labels_before(foreground):
 
 
 @jax.jit
-def _person_coloured(models: VideoModels, frames):
-    x = _unit_rgb(frames)
-    background = gmm_log_prob(models.background, x)
-    return (gmm_log_prob(models.person, x) > background) | (gmm_log_prob(models.skin, x) > background)
+def _person_coloured(densities):
+    """(.., T, H, W): the person or the skin density beats the background density."""
+    return jnp.max(densities[..., 1:, :, :], axis=-3) > densities[..., 0, :, :]
 
 
 def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], start: int,
@@ -190,11 +226,13 @@ def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], 
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     batched = arr.ndim == 5
     start = _check_start(start, arr.shape[-4], 0)
+    margins = _checked_margins(options)
     x = jnp.asarray(arr)
-    no_update = _person_coloured(models, x).at[..., :start, :, :].set(False)
+    densities = _colour_log_densities(models, x)
+    no_update = _person_coloured(densities).at[..., :start, :, :].set(False)
     run = run_background_batch if batched else run_background
     _, fg = run(x, no_update, BackgroundStructure(), options.background)
-    scores = region_scores(models, x[..., start:, :, :, :], fg[..., start:, :, :], options)
+    scores = _scores(densities[..., start:, :, :, :], fg[..., start:, :, :], *margins)
     shape = tuple(arr.shape[-3:-1])
     result = segment_video(LevelSetStructure(len(REGIONS), shape, _coarse(shape)), scores, options=options.levelset)
     before = _labels_before(fg[..., :start, :, :])

@@ -15,7 +15,8 @@ class Config:
     seed: int = 0
     video_preset: str = "paper"          # experiments.data.video preset of the recordings
     n_skin_persons: int = 2              # persons whose hand and face pixels train the skin models
-    max_clips: int = 0                   # 0: every clip of the other persons
+    eval_repetitions: int = 1            # repetitions per person and OAC evaluated (0: all; 1 keeps the paper preset near 30 min)
+    max_clips: int = 0                   # 0: every selected clip of the other persons
     pad_frames: int = 50                 # clips are padded to a multiple of this (one compilation per length)
     motion_penalty: float = 4.0          # VideoOptions: nats off the background where it moves
     object_margin: float = 0.0           # VideoOptions: the object's score above the uniform density
@@ -28,6 +29,7 @@ class Config:
         if self.video_preset not in video.PRESETS:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
         check_int(self.n_skin_persons, "n_skin_persons", min_value=1)
+        check_int(self.eval_repetitions, "eval_repetitions", min_value=0)
         check_int(self.max_clips, "max_clips", min_value=0)
         check_int(self.pad_frames, "pad_frames", min_value=1)
         check_real(self.motion_penalty, "motion_penalty", min_value=0.0)

@@ -47,9 +47,7 @@ def skin_stage(cfg: Config, settings: video.VideoSettings):
     hand and face pixels of the first `n_skin_persons` persons' clips (left views, subsampled)."""
     skin, other = [], []
     rng = np.random.default_rng(cfg.seed)
-    for person, _, _, rec in video.iter_clips(settings, progress=progress):
-        if person >= cfg.n_skin_persons:
-            break
+    for _, _, _, rec in video.iter_clips(settings, progress=progress, where=lambda p, c, r: p < cfg.n_skin_persons):
         lab = rec.left_labels[::3]
         is_skin = (lab == 2) | (lab == 3)
         skin.append(rec.left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
@@ -78,9 +76,10 @@ def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, Sta
     inter, union, errors, merged, err3d, series = {}, {}, {m: [] for m in METHODS}, [], [], []
     first = None
     n = 0
-    for person, cls, rep, rec in video.iter_clips(settings, progress=progress):
-        if person < cfg.n_skin_persons:
-            continue
+    def evaluated(person, cls, rep):
+        return person >= cfg.n_skin_persons and (not cfg.eval_repetitions or rep < cfg.eval_repetitions)
+
+    for person, cls, rep, rec in video.iter_clips(settings, progress=progress, where=evaluated):
         if cfg.max_clips and n >= cfg.max_clips:
             break
         left, right, T = _pad(rec, cfg.pad_frames)
