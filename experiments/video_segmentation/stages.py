@@ -42,6 +42,13 @@ def segmentation_start(settings: video.VideoSettings) -> int:
     return int(round(settings.n_empty + (settings.entry_s + settings.settle_s) * settings.fps))
 
 
+def background_options(settings: video.VideoSettings) -> hog_jax.BackgroundOptions:
+    """The TR's learning rate alpha = 0.05 per frame at the paper preset's 25 fps, and the same
+    forgetting time at other frame rates (1 - 0.95^(25 / fps) per frame): at the quick preset's
+    10 fps the lighting drifts 2.5 times as far between frames."""
+    return hog_jax.BackgroundOptions(alpha=float(1.0 - (1.0 - 0.05) ** (25.0 / settings.fps)))
+
+
 def skin_stage(cfg: Config, settings: video.VideoSettings):
     """(a)'s chroma skin model (`hog_jax.fit_skin_model`) and (b)'s RGB skin GMM (`fit_skin`) from the
     hand and face pixels of the first `n_skin_persons` persons' clips (left views, subsampled)."""
@@ -71,7 +78,7 @@ def _pad(rec, multiple: int):
 def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, StageResult, dict]:
     """Every clip of the evaluated persons: the three methods' pooled IoUs and centroid errors."""
     options = VideoOptions(motion_penalty=cfg.motion_penalty, object_margin=cfg.object_margin,
-                           person_frames=cfg.person_frames)
+                           person_frames=cfg.person_frames, background=background_options(settings))
     start = segmentation_start(settings)
     inter, union, errors, merged, err3d, series = {}, {}, {m: [] for m in METHODS}, [], [], []
     first = None
