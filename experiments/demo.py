@@ -13,6 +13,8 @@ Stage "phmm": one simulated pointing movement recognised by PHMMs (action and ta
 the robot arm (`phmm_demo.png`; experiments.phmm_tabletop).
 Stage "oac": one simulated object-action complex classified by a CHCRF (`oac_demo.png`;
 experiments.oac_recognition).
+Stage "video": one rendered stereo clip segmented into skin, person, object and background, hand and
+face tracked (`video_demo_sheet.png`; experiments.video_segmentation).
 """
 from __future__ import annotations
 
@@ -139,6 +141,7 @@ STAGES = {
     "mapping": _lazy_stage("experiments.grasp_mapping", "grasp_demo_stage"),
     "phmm": _lazy_stage("experiments.phmm_tabletop"),
     "oac": _lazy_stage("experiments.oac_recognition"),
+    "video": _lazy_stage("experiments.video_segmentation.demo"),
 }
 
 

@@ -292,3 +292,18 @@ def test_bad_structures_and_grey_frames_are_named():
         chan_vese_segment(ONE_SCALE, np.full((H, W), np.nan))
     with pytest.raises(ValueError, match="grey"):
         chan_vese_segment(ONE_SCALE, np.zeros((H, W + 1)))
+
+
+def test_reseed_margin_brings_back_an_absent_region():
+    """Region 0 (the disc) is absent from frame 0, so without re-seeding it has no front and never
+    appears; with reseed_margin it is found from frame 1 on. Same shapes as `videos` (one compilation)."""
+    frames = [disc_scores(24, 30, 12, noise=0.15, seed=20 + t) for t in range(5)]
+    scores = np.stack([f[0] for f in frames])
+    scores[0] = np.array([-10.0, 0.0], np.float32)[:, None, None]  # frame 0: only the background
+    truth = np.stack([f[1] for f in frames])
+    truth[0] = False
+    reseeded = segment_video(ONE_SCALE, np.stack([scores, scores]), options=OPTS._replace(reseed_margin=3.0))
+    plain = segment_video(ONE_SCALE, np.stack([scores, scores]), options=OPTS)
+    assert not (np.asarray(plain.labels[0]) == 0).any()
+    assert min(iou(np.asarray(reseeded.labels[0, t]) == 0, truth[t]) for t in range(1, 5)) >= 0.9
+    assert not (np.asarray(reseeded.labels[0, 0]) == 0).any()

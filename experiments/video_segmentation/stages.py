@@ -49,12 +49,20 @@ def background_options(settings: video.VideoSettings) -> hog_jax.BackgroundOptio
     return hog_jax.BackgroundOptions(alpha=float(1.0 - (1.0 - 0.05) ** (25.0 / settings.fps)))
 
 
+def selected_clips(settings: video.VideoSettings, where):
+    """(person, class, repetition, Recording) of the clips that `where(person, class, repetition)`
+    accepts, one at a time (the others are neither loaded nor rendered)."""
+    for p, c, r, script in video.clip_scripts(settings):
+        if where(p, c, r):
+            yield p, c, r, video.render_recording(settings, script, progress=progress)
+
+
 def skin_stage(cfg: Config, settings: video.VideoSettings):
     """(a)'s chroma skin model (`hog_jax.fit_skin_model`) and (b)'s RGB skin GMM (`fit_skin`) from the
     hand and face pixels of the first `n_skin_persons` persons' clips (left views, subsampled)."""
     skin, other = [], []
     rng = np.random.default_rng(cfg.seed)
-    for _, _, _, rec in video.iter_clips(settings, progress=progress, where=lambda p, c, r: p < cfg.n_skin_persons):
+    for _, _, _, rec in selected_clips(settings, lambda p, c, r: p < cfg.n_skin_persons):
         lab = rec.left_labels[::3]
         is_skin = (lab == 2) | (lab == 3)
         skin.append(rec.left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
@@ -86,7 +94,7 @@ def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, Sta
     def evaluated(person, cls, rep):
         return person >= cfg.n_skin_persons and (not cfg.eval_repetitions or rep < cfg.eval_repetitions)
 
-    for person, cls, rep, rec in video.iter_clips(settings, progress=progress, where=evaluated):
+    for person, cls, rep, rec in selected_clips(settings, evaluated):
         if cfg.max_clips and n >= cfg.max_clips:
             break
         left, right, T = _pad(rec, cfg.pad_frames)

@@ -8,7 +8,7 @@ import json
 import os
 import sys
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -261,19 +261,17 @@ def scripts(settings: VideoSettings = VideoSettings(), cache: bool = True, progr
     return _video_set(settings, items, cache, progress)
 
 
-def iter_clips(settings: VideoSettings = VideoSettings(), cache: bool = True, progress=_progress_bar,
-               where: Callable[[int, int, int], bool] | None = None) -> Iterator[tuple[int, int, int, Recording]]:
+def iter_clips(settings: VideoSettings = VideoSettings(), cache: bool = True,
+               progress=_progress_bar) -> Iterator[tuple[int, int, int, Recording]]:
     """(person, class, repetition, Recording) of every clip, one at a time (the full set at 320 x 240
-    does not fit in memory); `where(person, class, repetition)`: only the clips it accepts are
-    loaded or rendered."""
+    does not fit in memory)."""
     _check_settings(settings)
 
     def generate():
         scenes = _Scenes(settings)
         try:
             for p, c, r, s in clip_scripts(settings):
-                if where is None or where(p, c, r):
-                    yield p, c, r, _recording(scenes, s, cache, progress)
+                yield p, c, r, _recording(scenes, s, cache, progress)
         finally:
             scenes.close()
 
