@@ -126,12 +126,10 @@ class LevelSetOptions(NamedTuple):
     it_min, it_max: iteration range per scale (0 <= it_min <= it_max, it_max >= 1). patience:
     consecutive unchanged iterations that stop the loop (>= 1). max_log_ratio: score floor below the
     pixel's best score (> 0). refit_every: iterations between re-estimates of score models that
-    depend on the partition (`levelset_grey`; >= 1; fixed scores ignore it). reseed_margin: a region
-    absent from the previous frame has no front and cannot come back by itself, and a pixel no level
-    set claims stays unclaimed (module docstring); where a region's score beats every other by more
-    than this many nats and the warm start does not give it the pixel, the frame's first scale starts
-    from the re-seeded partition instead (`_reseed`), which the flow then grows or removes (TR §3.7's
-    "add small curves"; None, the default, never re-seeds).
+    depend on the partition (`levelset_grey`; >= 1; fixed scores ignore it). reseed_margin: an absent
+    region has no front and an unclaimed pixel stays unclaimed (module docstring); where a region
+    beats every other by more than this many nats but the warm start does not give it the pixel, the
+    frame starts from the re-seeded partition (`_reseed`; TR §3.7's "add small curves"; None: never).
     """
 
     alpha: float = 1.0
@@ -198,8 +196,7 @@ def clip_scores(e, max_log_ratio):
 
 
 def partition_sdf(e):
-    """Signed distances (as `signed_distance`) of the regions of the argmax partition of scores
-    e (R, h, w) -> (R, h, w)."""
+    """Signed distances (`labels_sdf`) of the argmax partition of scores e (R, h, w) -> (R, h, w)."""
     return labels_sdf(jnp.argmax(e, axis=0), e.shape[0])
 
 
@@ -302,12 +299,10 @@ def _frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) -> Leve
 
 
 def _reseed(phi, e, o):
-    """The seeds of `reseed_margin` (LevelSetOptions) at the first scale of a frame: where a region's
-    score beats every other's by the margin and the level sets do not give it that pixel, the pixel
-    joins it; pixels no region claims join their best-scoring region; and, if any pixel was
-    re-seeded, every phi_i restarts as the signed distance of that partition (`labels_sdf`: a seed
-    pasted into phi without its distance function is a spike that eq. 11's Laplacian flattens in
-    one step). Without seeds phi is unchanged."""
+    """`reseed_margin` (LevelSetOptions) at a frame's first scale: a pixel whose best region wins by the
+    margin but is not its label joins that region, unclaimed pixels join their best region, and then
+    every phi_i restarts as the signed distance of that partition (a seed pasted into phi without its
+    distance function is a spike that eq. 11's Laplacian flattens in one step); no seed: unchanged."""
     labels = labels_of(phi)
     best = jnp.argmax(e, axis=0)
     seeds = (jnp.max(e - max_others(e), axis=0) > o.reseed_margin) & (labels != best)
