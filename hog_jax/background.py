@@ -52,6 +52,8 @@ Validation (ValueError naming the argument) happens at the boundary, outside jit
 from __future__ import annotations
 
 import dataclasses
+import os
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from typing import NamedTuple
 
@@ -181,7 +183,7 @@ def _rows_sum(a):
     return sum((a[k] for k in range(1, a.shape[0])), a[0])
 
 
-def _step(w, mu, var, x, learn, o: _Opts):
+def step_pixels_last(w, mu, var, x, learn, o: _Opts):
     """One frame with the pixels last: w, var (K, N), mu (K, C, N), x (C, N) float32, learn (N,)
     bool. Returns the new (w, mu, var) and foreground (N,) bool.
 
@@ -229,20 +231,21 @@ def _step(w, mu, var, x, learn, o: _Opts):
     return new_w, new_mu, new_var, foreground
 
 
-def _scan(w, mu, var, frames, masks, o: _Opts):
+def scan_pixels_last(w, mu, var, frames, masks, o: _Opts):
     """frames (T, H, W, C) any real dtype, masks (T, H, W) bool -> state, foreground (T, N)."""
     T, C = frames.shape[0], frames.shape[-1]
     xs = jnp.moveaxis(frames.reshape(T, -1, C), 2, 1)  # (T, C, N), still in the input dtype
 
     def body(carry, inp):
         x, m = inp
-        *state, fg = _step(*carry, x.astype(jnp.float32), ~m, o)
+        *state, fg = step_pixels_last(*carry, x.astype(jnp.float32), ~m, o)
         return tuple(state), fg
 
     return jax.lax.scan(body, (w, mu, var), (xs, masks.reshape(T, -1)))
 
 
-def _to_internal(state: BackgroundState):
+def pixels_last(state: BackgroundState):
+    """The kernel's layout of a state: weights (K, N), means (K, C, N), variances (K, N), N = H W."""
     H, W, K = state.weights.shape
     return (state.weights.reshape(H * W, K).T, jnp.moveaxis(state.means.reshape(H * W, K, -1), 0, 2),
             state.variances.reshape(H * W, K).T)
@@ -254,7 +257,7 @@ def _to_public(w, mu, var, H, W) -> BackgroundState:
                            var.T.reshape(H, W, K))
 
 
-def _init(frame, K: int, o: _Opts) -> BackgroundState:
+def init_state(frame, K: int, o: _Opts) -> BackgroundState:
     H, W, C = frame.shape
     x = frame.astype(jnp.float32)
     weights = jnp.zeros((H, W, K), jnp.float32).at[..., 0].set(1.0)
@@ -265,26 +268,28 @@ def _init(frame, K: int, o: _Opts) -> BackgroundState:
 @jax.jit
 def _update_jit(state, frame, mask, o):
     H, W = frame.shape[:2]
-    w, mu, var = _to_internal(state)
+    w, mu, var = pixels_last(state)
     x = jnp.moveaxis(frame.reshape(H * W, -1), 1, 0).astype(jnp.float32)
-    *new, fg = _step(w, mu, var, x, ~mask.reshape(-1), o)
+    *new, fg = step_pixels_last(w, mu, var, x, ~mask.reshape(-1), o)
     return _to_public(*new, H, W), fg.reshape(H, W)
 
 
 def _run_one(state, frames, masks, o):
+    """masks None: every pixel learns (no (T, H, W) array of False made and copied)."""
     H, W = frames.shape[1:3]
-    (w, mu, var), fg = _scan(*_to_internal(state), frames, masks, o)
+    masks = jnp.zeros(frames.shape[:3], bool) if masks is None else masks
+    (w, mu, var), fg = scan_pixels_last(*pixels_last(state), frames, masks, o)
     return _to_public(w, mu, var, H, W), fg.reshape(-1, H, W)
 
 
 _run_jit = jax.jit(_run_one)
-_init_jit = jax.jit(_init, static_argnums=1)
+_init_jit = jax.jit(init_state, static_argnums=1)
 
 
 @partial(jax.jit, static_argnums=(3, 4))
 def _run_batch_jit(frames, masks, o, K: int, videos_per_step: int):
     """B videos, `videos_per_step` of them vmapped together, the groups one after another (`lax.map`)."""
-    state = jax.vmap(_init, in_axes=(0, None, None))(frames[:, 0], K, o)
+    state = jax.vmap(init_state, in_axes=(0, None, None))(frames[:, 0], K, o)
     return jax.lax.map(lambda a: _run_one(*a, o), (state, frames, masks), batch_size=videos_per_step)
 
 
@@ -347,46 +352,109 @@ def update(state: BackgroundState, frame: Real[ArrayLike, "H W C"],
 
 
 def _run(frames, no_update_masks, structure, options, ndim: int):
+    """Checked numpy frames, masks (or None) and traced options."""
     arr = _check_frames(frames, "frames", ndim, structure.n_channels)
-    masks = _check_masks(no_update_masks, "no_update_masks", arr.shape[:-1])
-    m = jnp.zeros(arr.shape[:-1], bool) if masks is None else jnp.asarray(masks)
-    return jnp.asarray(arr), m, check_options(options)
+    return arr, _check_masks(no_update_masks, "no_update_masks", arr.shape[:-1]), check_options(options)
+
+
+def _default_threads() -> int:
+    """One host thread per core this process may use on the CPU backend; 1 on an accelerator."""
+    if jax.default_backend() != "cpu":
+        return 1
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+_POOL: list[ThreadPoolExecutor] = []
+
+
+def _in_threads(fn, items: list) -> list:
+    """[fn(item) for item in items], concurrently on host threads (XLA releases the GIL while a
+    compiled call runs). On the CPU this beats XLA's own split of each fused loop over the cores: a
+    frame is a dozen short fused loops, and every one of them ends in a barrier of all threads."""
+    if len(items) == 1:
+        return [fn(items[0])]
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(max(_default_threads(), 2), thread_name_prefix="hog_jax.background"))
+    return list(_POOL[0].map(fn, items))
+
+
+def _parts(n: int, threads: int | None, name: str) -> list[slice]:
+    """n items (rows or videos) in min(threads, n) contiguous parts of near-equal size (equal sizes
+    share one compilation)."""
+    k = _default_threads() if threads is None else check_int(threads, name, min_value=1)
+    bounds = np.linspace(0, n, min(k, n) + 1).round().astype(int)
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _part(masks, index):
+    return None if masks is None else jnp.asarray(masks[index])
+
+
+def _joined(results: list, fg_axis: int):
+    """The parts' (state, foreground) put back together: states along their first axis (rows or
+    videos), foregrounds along `fg_axis`."""
+    if len(results) == 1:
+        return results[0]
+    states, fgs = zip(*results)
+    return BackgroundState(*(jnp.concatenate(a, axis=0) for a in zip(*states))), jnp.concatenate(fgs, axis=fg_axis)
 
 
 def run_background(frames: Real[ArrayLike, "T H W C"], no_update_masks: Bool[ArrayLike, "T H W"] | None = None,
                    structure: BackgroundStructure = BackgroundStructure(),
                    options: BackgroundOptions = BackgroundOptions(),
-                   initial_state: BackgroundState | None = None) -> tuple[BackgroundState, Bool[Array, "T H W"]]:
+                   initial_state: BackgroundState | None = None,
+                   threads: int | None = None) -> tuple[BackgroundState, Bool[Array, "T H W"]]:
     """A video (T, H, W, C) (uint8 or real in [0, 255]) -> (final state, foreground (T, H, W) bool).
 
     The state starts from `init_background(frames[0])` (or `initial_state`, to continue a video) and
     every frame, the first included, is classified and then learned (`update`) as one `lax.scan`.
-    no_update_masks (T, H, W): True where a frame's pixel is not learned (TR §3.5). ValueError naming
-    the argument for frames of the wrong shape or dtype, zero frames, NaN, values outside [0, 255],
-    masks of another shape or non-boolean values, or bad options."""
+    no_update_masks (T, H, W): True where a frame's pixel is not learned (TR §3.5).
+
+    threads: the pixels are independent, so the rows are cut into this many stripes, each its own
+    compiled scan on a host thread (`_in_threads`); the result does not depend on it. Default: one
+    per core on the CPU backend, 1 (the whole frame in one call) on an accelerator.
+
+    ValueError naming the argument for frames of the wrong shape or dtype, zero frames, NaN, values
+    outside [0, 255], masks of another shape or non-boolean values, threads < 1, or bad options."""
     x, m, o = _run(frames, no_update_masks, structure, options, 4)
-    if initial_state is None:
-        state = _init_jit(x[0], structure.n_components, o)
-    else:
-        state = _check_state(initial_state, "initial_state", x.shape[1:3], x.shape[3])
-    return _run_jit(state, x, m, o)
+    if initial_state is not None:
+        _check_state(initial_state, "initial_state", x.shape[1:3], x.shape[3])
+
+    def stripe(rows: slice):
+        frames_part = jnp.asarray(x[:, rows])
+        if initial_state is None:
+            state = _init_jit(frames_part[0], structure.n_components, o)
+        else:
+            state = BackgroundState(*(a[rows] for a in initial_state))
+        # waited for in its thread: dispatched without waiting, the stripes' scans ran one after another
+        return jax.block_until_ready(_run_jit(state, frames_part, _part(m, (slice(None), rows)), o))
+
+    return _joined(_in_threads(stripe, _parts(x.shape[1], threads, "threads")), fg_axis=1)
 
 
 def run_background_batch(frames: Real[ArrayLike, "B T H W C"],
                          no_update_masks: Bool[ArrayLike, "B T H W"] | None = None,
                          structure: BackgroundStructure = BackgroundStructure(),
-                         options: BackgroundOptions = BackgroundOptions(), videos_per_step: int | None = None
-                         ) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
+                         options: BackgroundOptions = BackgroundOptions(), videos_per_step: int | None = None,
+                         threads: int | None = None) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
     """`run_background` for B videos of equal length (B, T, H, W, C) in one call: final states with a
     leading B axis and foreground (B, T, H, W). Checks as `run_background`.
 
     videos_per_step: how many videos are vmapped together (the groups run one after another in one
     compiled `lax.map`). Default: all B on an accelerator; one on the CPU, where one video's state
     (K (C + 2) floats per pixel) stays in the cache from frame to frame and B of them would not: a
-    vmap over all videos there gave fewer frames per second than one video at a time."""
+    vmap over all videos there gave fewer frames per second than one video at a time.
+    threads: the videos are cut into this many groups, each its own compiled call on a host thread
+    (as `run_background`'s stripes); default one per core on the CPU, 1 on an accelerator."""
     x, m, o = _run(frames, no_update_masks, structure, options, 5)
     B = x.shape[0]
     if videos_per_step is None:
         videos_per_step = 1 if jax.default_backend() == "cpu" else B
     step = check_int(videos_per_step, "videos_per_step", min_value=1, max_value=B)
-    return _run_batch_jit(x, m, o, structure.n_components, step)
+
+    def group(videos: slice):
+        n = videos.stop - videos.start
+        return jax.block_until_ready(_run_batch_jit(jnp.asarray(x[videos]), _part(m, videos), o,
+                                                    structure.n_components, min(step, n)))
+
+    return _joined(_in_threads(group, _parts(B, threads, "threads")), fg_axis=0)

@@ -276,7 +276,7 @@ def _run(phi0, data, model, o, alpha):
     return phi, it, stall >= o.patience
 
 
-def _frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) -> LevelSetResult:
+def segment_frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) -> LevelSetResult:
     """Both scales for one frame, from the previous level sets (warm) or, where `cold`, the model's
     start."""
     def start(d, warm):
@@ -319,7 +319,7 @@ def _kernel(structure: LevelSetStructure, model, data, phi0, cold0, o, batched: 
     def video(d, p0):
         def step(prev, xs):
             t, frame = xs
-            res = _frame(structure, model, frame, prev, (t == 0) & cold0, o)
+            res = segment_frame(structure, model, frame, prev, (t == 0) & cold0, o)
             return res.phi, res
         res = jax.lax.scan(step, p0, (jnp.arange(d.shape[0]), d))[1]
         return jax.tree_util.tree_map(lambda a: a[0], res) if frames else res

@@ -24,14 +24,16 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
   is an unrecognised object.
 
 The TR's background model does not update pixels that belong to the person or a tracked object
-(TR §3.5), so that a person sitting still is not absorbed into the background. The no-update mask
-here is the colour models' own per-pixel decision from `start` on: a pixel whose person or skin
-density beats the background density. (The TR takes it from the frame's segmentation, an online
-loop; the colour decision is available before the level sets run, so the background model and the
-level sets are each one vectorised `lax.scan` over the video.)
+(TR §3.5), so that a person sitting still is not absorbed into the background. Here that mask is the
+previous frame's segmentation: every pixel not labelled background (person, skin, object, or a
+boundary between regions) is classified but not learnt. So the background model and the level sets
+run in one `lax.scan` over the frames from `start` on, carrying the background state and the level
+sets together; a colour-only mask, decided pixel by pixel, also held wall pixels whose colour drifted
+near the clothing's with the light, which then stopped adapting and turned "person".
 """
 from __future__ import annotations
 
+from functools import partial
 from typing import NamedTuple
 
 import jax
@@ -40,9 +42,11 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int, Key, Real
 
 from hog_jax._checks import check_key
-from hog_jax.background import BackgroundOptions, BackgroundStructure, run_background, run_background_batch
+from hog_jax import background as bg
+from hog_jax.background import BackgroundOptions, BackgroundStructure, run_background
 from hog_jax.colour_models import ColourFit, fit_person_background_models
-from hog_jax.levelset import LevelSetOptions, LevelSetStructure, segment_video
+from hog_jax import levelset
+from hog_jax.levelset import LevelSetOptions, LevelSetStructure
 from hog_jax.segment import GMM, fit_gmm, gmm_log_prob, median3
 from hog_jax.stereo import StereoCamera
 from hog_jax.tracks import HandFacePositions, hand_face_positions
@@ -86,7 +90,7 @@ class VideoOptions(NamedTuple):
 class VideoSegmentation(NamedTuple):
     """labels (.., T, H, W) int8 in `REGIONS` order (-1: boundary); frames before `start` carry the
     training phase's answer (1 where the background model sees motion, else 0). foreground
-    (.., T, H, W) bool: the background model's motion mask of the final pass. iterations (.., T) int32:
+    (.., T, H, W) bool: the background model's motion mask. iterations (.., T) int32:
     level-set iterations at the fine scale (0 before `start`); converged (.., T) bool."""
 
     labels: Int[Array, "*T H W"]
@@ -205,41 +209,64 @@ def _coarse(shape: tuple[int, int]) -> tuple[int, int] | None:
     return (H // 4, W // 4) if H % 4 == 0 and W % 4 == 0 and min(H, W) >= 240 else None
 
 
-@jax.jit
-def _labels_before(foreground):
-    return jnp.where(foreground, jnp.int8(PERSON), jnp.int8(BACKGROUND))
+def _segment_one(structure: LevelSetStructure, frames, densities, start: int, margins, bo, lo):
+    """One video: frames (T, H, W, 3), densities (T, 3, H, W) -> labels (T, H, W) int8, foreground
+    (T, H, W), fine-scale iterations (T,), converged (T,). The background model learns frames[:start]
+    whole; from `start` on each frame is classified, learnt outside the previous frame's non-background
+    labels, scored and segmented from the previous frame's level sets (module docstring)."""
+    T, H, W, C = frames.shape
+    xs = jnp.moveaxis(frames.reshape(T, H * W, C), 2, 1)  # (T, C, N), the background kernel's layout
+    state = bg.pixels_last(bg.init_state(frames[0], BackgroundStructure().n_components, bo))
+    state, fg_before = bg.scan_pixels_last(*state, frames[:start], jnp.zeros((start, H, W), bool), bo)
+
+    def step(carry, inp):
+        state, phi, held = carry
+        t, x, dens = inp
+        *state, fg = bg.step_pixels_last(*state, x.astype(jnp.float32), ~held, bo)
+        fg = fg.reshape(H, W)
+        res = levelset.segment_frame(structure, levelset.FIXED, _scores(dens, fg, *margins), phi, t == 0, lo)
+        return (tuple(state), res.phi, res.labels.reshape(-1) != BACKGROUND), (res.labels, fg, res.iterations,
+                                                                               res.converged)
+
+    phi0 = jnp.zeros((len(REGIONS), H, W), jnp.float32)
+    carry = (state, phi0, fg_before[-1])
+    _, (labels, fg, iterations, converged) = jax.lax.scan(
+        step, carry, (jnp.arange(T - start), xs[start:], densities[start:]))
+    before = jnp.where(fg_before.reshape(start, H, W), jnp.int8(PERSON), jnp.int8(BACKGROUND))
+    pad = jnp.zeros(start, jnp.int32)
+    return (jnp.concatenate([before, labels.astype(jnp.int8)]), jnp.concatenate([fg_before.reshape(start, H, W), fg]),
+            jnp.concatenate([pad, iterations]), jnp.concatenate([pad.astype(bool), converged]))
 
 
-@jax.jit
-def _person_coloured(densities):
-    """(.., T, H, W): the person or the skin density beats the background density."""
-    return jnp.max(densities[..., 1:, :, :], axis=-3) > densities[..., 0, :, :]
+@partial(jax.jit, static_argnames=("structure", "start"))
+def _segment_jit(structure: LevelSetStructure, models: VideoModels, frames, start: int, margins, bo, lo):
+    """frames (B, T, H, W, 3) -> `_segment_one`'s outputs with a leading B (vmapped where B > 1)."""
+    densities = _colour_log_densities(models, frames)
+    one = partial(_segment_one, structure, start=start, margins=margins, bo=bo, lo=lo)
+    if frames.shape[0] == 1:  # no batched while loops (as levelset's kernel)
+        return jax.tree.map(lambda a: a[None], one(frames[0], densities[0]))
+    return jax.vmap(one)(frames, densities)
 
 
 def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], start: int,
                       options: VideoOptions = VideoOptions()) -> VideoSegmentation:
     """Masks of a video (T, H, W, 3) or a batch of videos (B, T, H, W, 3) (uint8 or real in [0, 255])
     whose segmentation phase begins at frame `start` (the frames before it: the empty scene, then
-    the person entering, TR §3). The background model runs over all frames, not updating the
-    person-coloured pixels from `start` on (module docstring); the level sets warm-start from frame
-    to frame. ValueError naming the argument."""
+    the person entering, TR §3). The background model runs over all frames, from `start` on not
+    learning the pixels the previous frame labelled other than background, in one scan with the
+    level sets, which warm-start from frame to frame (module docstring). ValueError naming the
+    argument."""
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     batched = arr.ndim == 5
     start = _check_start(start, arr.shape[-4], 0)
     margins = _checked_margins(options)
-    x = jnp.asarray(arr)
-    densities = _colour_log_densities(models, x)
-    no_update = _person_coloured(densities).at[..., :start, :, :].set(False)
-    run = run_background_batch if batched else run_background
-    _, fg = run(x, no_update, BackgroundStructure(), options.background)
-    scores = _scores(densities[..., start:, :, :, :], fg[..., start:, :, :], *margins)
     shape = tuple(arr.shape[-3:-1])
-    result = segment_video(LevelSetStructure(len(REGIONS), shape, _coarse(shape)), scores, options=options.levelset)
-    before = _labels_before(fg[..., :start, :, :])
-    pad = jnp.zeros(before.shape[:-2], jnp.int32)
-    return VideoSegmentation(jnp.concatenate([before, result.labels.astype(jnp.int8)], axis=-3), fg,
-                             jnp.concatenate([pad, result.iterations], axis=-1),
-                             jnp.concatenate([pad.astype(bool), result.converged], axis=-1))
+    structure = LevelSetStructure(len(REGIONS), shape, _coarse(shape))
+    x = jnp.asarray(arr if batched else arr[None])
+    out = _segment_jit(structure, models, x, start, margins, bg.check_options(options.background),
+                       levelset.check_options(options.levelset))
+    seg = VideoSegmentation(*out)
+    return seg if batched else jax.tree.map(lambda a: a[0], seg)
 
 
 def segment_stereo(models: VideoModels, left: Real[ArrayLike, "T H W 3"], right: Real[ArrayLike, "T H W 3"],

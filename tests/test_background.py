@@ -170,6 +170,21 @@ def test_batch_equals_single_videos(events):
             np.testing.assert_allclose(np.asarray(got[b]), np.asarray(want), rtol=1e-6, atol=1e-6)
 
 
+def test_threads_do_not_change_the_result(events):
+    """Stripes of rows (uneven: 12 rows in 5) and groups of videos on host threads give what one call
+    gives, a continued video included."""
+    frames, masks, _ = events
+    first, _ = run_background(frames[:8], masks[:8], threads=1)
+    whole = run_background(frames[8:], masks[8:], initial_state=first, threads=1)
+    striped = run_background(frames[8:], masks[8:], initial_state=first, threads=5)
+    for got, want in zip(jax.tree.leaves(striped), jax.tree.leaves(whole)):
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
+    videos = np.stack([frames, 255 - frames, frames[:, ::-1]])
+    one = run_background_batch(videos, threads=1)
+    for got, want in zip(jax.tree.leaves(run_background_batch(videos, threads=2)), jax.tree.leaves(one)):
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
+
+
 def _square_video(positions, T=16, H=12, W=16, side=4, seed=1):
     rng = np.random.default_rng(seed)
     scene = rng.uniform(40, 200, (H, W, 3))
@@ -237,6 +252,7 @@ BAD_CALLS = {
     "no_update_mask: expected shape": lambda: update(init_background(GOOD[0]), GOOD[0], np.zeros((5, 4), bool)),
     "first_frame: expected a 3-D": lambda: init_background(GOOD),
     "initial_state: expected weights": lambda: run_background(GOOD, initial_state=init_background(GOOD[0, :2])),
+    "threads: must be >= 1": lambda: run_background(GOOD, threads=0),
     "videos_per_step: must be <= 1": lambda: run_background_batch(GOOD[None], videos_per_step=2),
     "init_variance: must be >= min_variance": lambda: run_background(GOOD,
                                                                      options=BackgroundOptions(init_variance=1.0)),

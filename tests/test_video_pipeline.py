@@ -57,6 +57,22 @@ def test_segment_recording_recovers_person_and_skin(fitted):
     assert np.all(np.asarray(seg.iterations)[:START] == 0) and np.all(np.asarray(seg.iterations)[START:] >= 1)
 
 
+def test_background_is_not_learnt_where_the_previous_frame_is_not_background(fitted):
+    """TR §3.5's no-update mask is the previous frame's segmentation: the same background model run
+    alone with that mask (the training phase's motion for the first segmented frame) gives the same
+    foreground, frame by frame."""
+    frames, _, models, _ = fitted
+    options = hog_jax.VideoOptions(person_frames=4)
+    seg = hog_jax.segment_recording(models, frames, START, options)
+    labels, fg = np.asarray(seg.labels), np.asarray(seg.foreground)
+    held = np.zeros((T, H, W), bool)
+    held[START] = fg[START - 1]
+    held[START + 1:] = labels[START:-1] != BACKGROUND
+    assert held[START + 1:].any() and not held[START + 1:].all()
+    _, alone = hog_jax.run_background(frames, held, options=options.background)
+    np.testing.assert_array_equal(np.asarray(alone), fg)
+
+
 def test_region_scores_and_bad_input(fitted):
     frames, _, models, _ = fitted
     fg = np.zeros(frames.shape[:3], bool)
