@@ -24,12 +24,17 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
   is an unrecognised object.
 
 The TR's background model does not update pixels that belong to the person or a tracked object
-(TR §3.5), so that a person sitting still is not absorbed into the background. Here that mask is the
-previous frame's segmentation: every pixel not labelled background (person, skin, object, or a
-boundary between regions) is classified but not learnt. So the background model and the level sets
-run in one `lax.scan` over the frames from `start` on, carrying the background state and the level
-sets together; a colour-only mask, decided pixel by pixel, also held wall pixels whose colour drifted
-near the clothing's with the light, which then stopped adapting and turned "person".
+(TR §3.5), so that a person sitting still is not absorbed into the background. Here a pixel is held
+(classified, not learnt) where the previous frame's segmentation gave it to another region than
+the background *and* its colour in this frame is the person's or the skin's (their density beats the
+background density). So the background model and the level sets run in one `lax.scan` over the
+frames from `start` on, carrying the background state and the level sets together. Each half alone
+fails, both seen on validation recordings: held by colour alone, wall pixels whose colour drifted
+near the clothing's with the light stopped adapting and turned "person"; held by label alone, a
+table the colour of the clothing, once the person's level set had spread onto it beside the arm,
+was never learnt again, moved against its stale model and stayed "person" to the end (the label
+feeds the hold, the hold the motion, the motion the label). A pixel the person has just left is
+learnt at once (its colour is the background's again).
 """
 from __future__ import annotations
 
@@ -212,16 +217,17 @@ def _coarse(shape: tuple[int, int]) -> tuple[int, int] | None:
 def _segment_one(structure: LevelSetStructure, frames, densities, start: int, margins, bo, lo):
     """One video: frames (T, H, W, 3), densities (T, 3, H, W) -> labels (T, H, W) int8, foreground
     (T, H, W), fine-scale iterations (T,), converged (T,). The background model learns frames[:start]
-    whole; from `start` on each frame is classified, learnt outside the previous frame's non-background
-    labels, scored and segmented from the previous frame's level sets (module docstring)."""
+    whole; from `start` on each frame is classified, learnt outside the held pixels, scored and
+    segmented from the previous frame's level sets (module docstring)."""
     T, H, W, C = frames.shape
     xs = jnp.moveaxis(frames.reshape(T, H * W, C), 2, 1)  # (T, C, N), the background kernel's layout
     state = bg.pixels_last(bg.init_state(frames[0], BackgroundStructure().n_components, bo))
     state, fg_before = bg.scan_pixels_last(*state, frames[:start], jnp.zeros((start, H, W), bool), bo)
 
     def step(carry, inp):
-        state, phi, held = carry
+        state, phi, claimed = carry
         t, x, dens = inp
+        held = claimed & (jnp.max(dens[1:], axis=0) > dens[0]).reshape(-1)
         *state, fg = bg.step_pixels_last(*state, x.astype(jnp.float32), ~held, bo)
         fg = fg.reshape(H, W)
         res = levelset.segment_frame(structure, levelset.FIXED, _scores(dens, fg, *margins), phi, t == 0, lo)
@@ -253,9 +259,9 @@ def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], 
     """Masks of a video (T, H, W, 3) or a batch of videos (B, T, H, W, 3) (uint8 or real in [0, 255])
     whose segmentation phase begins at frame `start` (the frames before it: the empty scene, then
     the person entering, TR §3). The background model runs over all frames, from `start` on not
-    learning the pixels the previous frame labelled other than background, in one scan with the
-    level sets, which warm-start from frame to frame (module docstring). ValueError naming the
-    argument."""
+    learning the held pixels (the previous frame's person, skin or object that still has the person's
+    or the skin's colour), in one scan with the level sets, which warm-start from frame to frame
+    (module docstring). ValueError naming the argument."""
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     batched = arr.ndim == 5
     start = _check_start(start, arr.shape[-4], 0)

@@ -16,10 +16,11 @@ varThreshold 16, shadow detection on), a fresh subtractor per repeat (built outs
 compares our batch with that same serial loop). MOG2's default learning rate is automatic (1 / min(2 n,
 history) after n frames); the rate changes the values, not the work per pixel and frame, so it is left
 at its default for the timing and the F1; `f1_mog2_alpha` reports MOG2 with learningRate = our alpha
-(0.05) beside it. Batched, our videos run one after another inside one call on the CPU
-(`run_background_batch`'s default there: one video's state stays in the cache) and vmapped on an
-accelerator. OpenCV's thread count is set to `cv_threads` (default: all cores, as XLA uses them)
-and reported.
+(0.05) beside it. On the CPU ours cuts the rows of a video into one stripe per core, each its own
+compiled scan on a host thread (`run_background`'s default there), as MOG2 splits its rows over its
+threads; batched, the videos go in groups of one per core, one video at a time within a group
+(`run_background_batch`'s CPU default), and are vmapped on an accelerator. OpenCV's thread count is
+set to `cv_threads` (default: all cores, as ours uses them) and reported.
 
 F1 (CDnet's convention, `score_cdnet`): frames 1-469 train every model (no labels there), frames
 `eval_first`..`eval_last` are scored; every model runs over frames 1..eval_last in order. Ours with
