@@ -64,8 +64,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "run_background",
-           "run_background_batch", "update"]
+__all__ = ["BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "log_density",
+           "run_background", "run_background_batch", "update"]
 
 _RHO = ("alpha", "alpha_eta")
 _DECISIONS = ("stauffer_grimson", "matched")
@@ -231,6 +231,19 @@ def step_pixels_last(w, mu, var, x, learn, o: _Opts):
     return new_w, new_mu, new_var, foreground
 
 
+def log_density_pixels_last(w, mu, var, x, scale: float = 255.0):
+    """Eq. 9's log P(X) of every pixel under its mixture, with the pixels last (w, var (K, N), mu
+    (K, C, N), x (C, N)), in the coordinates X / scale: each component isotropic with per-channel
+    variance sigma^2 / C (sigma^2 tracks the total squared distance over the C channels, module
+    docstring). Empty components (weight 0) add nothing."""
+    C = mu.shape[1]
+    d2 = _rows_sum((x[:, None, :] - jnp.moveaxis(mu, 1, 0)) ** 2)  # (K, N)
+    per_channel = var / (C * scale * scale)
+    log_comp = -0.5 * C * jnp.log(2 * jnp.pi * per_channel) - 0.5 * C * d2 / var
+    log_w = jnp.where(w > 0, jnp.log(jnp.where(w > 0, w, 1.0)), -jnp.inf)
+    return jax.nn.logsumexp(log_w + log_comp, axis=0)
+
+
 def scan_pixels_last(w, mu, var, frames, masks, o: _Opts):
     """frames (T, H, W, C) any real dtype, masks (T, H, W) bool -> state, foreground (T, N)."""
     T, C = frames.shape[0], frames.shape[-1]
@@ -335,6 +348,24 @@ def init_background(first_frame: Real[ArrayLike, "H W C"], structure: Background
     the wrong shape or dtype, NaN or values outside [0, 255]."""
     frame = _check_frames(first_frame, "first_frame", 3, structure.n_channels)
     return _init_jit(jnp.asarray(frame), structure.n_components, check_options(options))
+
+
+def log_density(state: BackgroundState, frame: Real[ArrayLike, "H W C"], scale: float = 255.0) -> Float[Array, "H W"]:
+    """Eq. 9's log P(X) (H, W) of a frame (H, W, C) under every pixel's mixture, in the coordinates
+    X / scale (255: the unit colour cube of `hog_jax.video`'s colour models); -inf nowhere a
+    component has weight. ValueError naming the argument."""
+    C = np.shape(state.means)[-1] if isinstance(state, BackgroundState) else 0
+    arr = _check_frames(frame, "frame", 3, max(C, 1))
+    _check_state(state, "state", arr.shape[:2], arr.shape[2])
+    s = check_real(scale, "scale", min_value=0.0, exclusive_min=True)
+    return _log_density_jit(state, jnp.asarray(arr), np.float32(s))
+
+
+@jax.jit
+def _log_density_jit(state, frame, scale):
+    H, W = frame.shape[:2]
+    x = jnp.moveaxis(frame.reshape(H * W, -1), 1, 0).astype(jnp.float32)
+    return log_density_pixels_last(*pixels_last(state), x, scale).reshape(H, W)
 
 
 def update(state: BackgroundState, frame: Real[ArrayLike, "H W C"],

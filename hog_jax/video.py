@@ -15,6 +15,13 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
   (TR §3.6's per-model threshold: a skin density at least that of `skin_match_quantile` of the skin
   model's own draws) teach neither model: skin is a region of its own, and a person model that had
   learnt this person's face and arms would outscore the generic skin model on them;
+* background, where the previous frame left the pixel to the background (not `claimed`, below): the
+  equal mixture of the background GMM and the pixel's own Stauffer–Grimson mixture before this
+  frame's update (eq. 9, `background.log_density`). A pixel that still matches its own model stays
+  background however far the drifting light has moved its colour from what the GMM learnt at the
+  start: on a validation recording a table the colour of the person's clothing otherwise turned
+  "person" for good. Where another region claimed the pixel, the GMM alone: the pixel's own model
+  may have learnt a person who sat still during the training phase;
 * background also loses `motion_penalty` nats where the background model sees motion: a moving
   pixel is not background whatever its colour (the objects stood on the table while the background
   was learnt, so their colours are in the background GMM);
@@ -26,8 +33,9 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
 The TR's background model does not update pixels that belong to the person or a tracked object
 (TR §3.5), so that a person sitting still is not absorbed into the background. Here a pixel is held
 (classified, not learnt) where the previous frame's segmentation gave it to another region than
-the background *and* its colour in this frame is the person's or the skin's (their density beats the
-background density). So the background model and the level sets run in one `lax.scan` over the
+the background (`claimed`; for the first segmented frame: what the background model saw move or has
+the person's or the skin's colour) *and* its colour in this frame is the person's or the skin's
+(their density beats the background GMM's). So the background model and the level sets run in one `lax.scan` over the
 frames from `start` on, carrying the background state and the level sets together. Each half alone
 fails, both seen on validation recordings: held by colour alone, wall pixels whose colour drifted
 near the clothing's with the light stopped adapting and turned "person"; held by label alone, a
@@ -214,28 +222,46 @@ def _coarse(shape: tuple[int, int]) -> tuple[int, int] | None:
     return (H // 4, W // 4) if H % 4 == 0 and W % 4 == 0 and min(H, W) >= 240 else None
 
 
+def _person_coloured(densities):
+    """(.., H, W) from (.., 3, H, W) densities: the person or the skin density beats the background's."""
+    return jnp.max(densities[..., 1:, :, :], axis=-3) > densities[..., 0, :, :]
+
+
 def _segment_one(structure: LevelSetStructure, frames, densities, start: int, margins, bo, lo):
     """One video: frames (T, H, W, 3), densities (T, 3, H, W) -> labels (T, H, W) int8, foreground
-    (T, H, W), fine-scale iterations (T,), converged (T,). The background model learns frames[:start]
-    whole; from `start` on each frame is classified, learnt outside the held pixels, scored and
-    segmented from the previous frame's level sets (module docstring)."""
+    (T, H, W), fine-scale iterations (T,), converged (T,). Before `start` the background model does
+    not learn what moved in the previous frame; from `start` on each frame is classified, learnt
+    outside the held pixels, scored and segmented from the previous frame's level sets (module
+    docstring)."""
     T, H, W, C = frames.shape
     xs = jnp.moveaxis(frames.reshape(T, H * W, C), 2, 1)  # (T, C, N), the background kernel's layout
     state = bg.pixels_last(bg.init_state(frames[0], BackgroundStructure().n_components, bo))
-    state, fg_before = bg.scan_pixels_last(*state, frames[:start], jnp.zeros((start, H, W), bool), bo)
+
+    def training(carry, x):  # no labels yet: what moved in the previous frame is held (TR §3.5)
+        state, moved = carry
+        *state, fg = bg.step_pixels_last(*state, x.astype(jnp.float32), ~moved, bo)
+        return (tuple(state), fg), fg
+
+    (state, _), fg_before = jax.lax.scan(training, (state, jnp.zeros(H * W, bool)), xs[:start])
 
     def step(carry, inp):
         state, phi, claimed = carry
         t, x, dens = inp
-        held = claimed & (jnp.max(dens[1:], axis=0) > dens[0]).reshape(-1)
-        *state, fg = bg.step_pixels_last(*state, x.astype(jnp.float32), ~held, bo)
+        x = x.astype(jnp.float32)
+        held = claimed & _person_coloured(dens).reshape(-1)
+        gmm = dens[0].reshape(-1)
+        mixture = jnp.logaddexp(gmm, bg.log_density_pixels_last(*state, x)) - jnp.log(2.0)  # before the update
+        background = jnp.where(claimed, gmm, mixture)
+        *state, fg = bg.step_pixels_last(*state, x, ~held, bo)
         fg = fg.reshape(H, W)
+        dens = dens.at[0].set(background.reshape(H, W))
         res = levelset.segment_frame(structure, levelset.FIXED, _scores(dens, fg, *margins), phi, t == 0, lo)
         return (tuple(state), res.phi, res.labels.reshape(-1) != BACKGROUND), (res.labels, fg, res.iterations,
                                                                                res.converged)
 
     phi0 = jnp.zeros((len(REGIONS), H, W), jnp.float32)
-    carry = (state, phi0, fg_before[-1])
+    # before the first segmented frame no labels exist: what moved or has the person's colour counts as claimed
+    carry = (state, phi0, fg_before[-1] | _person_coloured(densities[start]).reshape(-1))
     _, (labels, fg, iterations, converged) = jax.lax.scan(
         step, carry, (jnp.arange(T - start), xs[start:], densities[start:]))
     before = jnp.where(fg_before.reshape(start, H, W), jnp.int8(PERSON), jnp.int8(BACKGROUND))

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hog_jax.background import (BackgroundOptions, BackgroundState, BackgroundStructure, init_background,
+from hog_jax.background import (BackgroundOptions, BackgroundState, BackgroundStructure, init_background, log_density,
                                 run_background, run_background_batch, update)
 
 OPTS = BackgroundOptions()
@@ -185,6 +185,22 @@ def test_threads_do_not_change_the_result(events):
         np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
 
 
+def test_log_density_is_eq9_in_float64(events):
+    """Eq. 9's mixture density of a frame under a learnt state, against float64 NumPy: isotropic
+    components of per-channel variance sigma^2 / C in the unit colour cube; empty components skipped."""
+    frames, masks, _ = events
+    state, _ = run_background(frames[:8], masks[:8])
+    frame = frames[8]
+    got = np.asarray(log_density(state, frame))
+    w, mu, var = (np.asarray(a, np.float64) for a in state)
+    x = frame.astype(np.float64)[:, :, None, :] / 255.0
+    v = var / (3 * 255.0 ** 2)
+    comp = np.exp(-0.5 * ((x - mu / 255.0) ** 2).sum(-1) / v) / (2 * np.pi * v) ** 1.5
+    want = np.log((w * comp).sum(-1))
+    assert (w == 0).any() and np.isfinite(want).all()
+    np.testing.assert_allclose(got, want, rtol=1e-4, atol=1e-3)
+
+
 def _square_video(positions, T=16, H=12, W=16, side=4, seed=1):
     rng = np.random.default_rng(seed)
     scene = rng.uniform(40, 200, (H, W, 3))
@@ -253,6 +269,7 @@ BAD_CALLS = {
     "first_frame: expected a 3-D": lambda: init_background(GOOD),
     "initial_state: expected weights": lambda: run_background(GOOD, initial_state=init_background(GOOD[0, :2])),
     "threads: must be >= 1": lambda: run_background(GOOD, threads=0),
+    "scale: must be > 0": lambda: log_density(init_background(GOOD[0]), GOOD[0], scale=0.0),
     "videos_per_step: must be <= 1": lambda: run_background_batch(GOOD[None], videos_per_step=2),
     "init_variance: must be >= min_variance": lambda: run_background(GOOD,
                                                                      options=BackgroundOptions(init_variance=1.0)),

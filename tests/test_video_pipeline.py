@@ -61,21 +61,23 @@ def test_segment_recording_recovers_person_and_skin(fitted):
 
 
 def test_background_is_not_learnt_where_the_previous_frame_is_not_background(fitted):
-    """TR §3.5's no-update mask: the previous frame's regions other than the background (the training
-    phase's motion for the first segmented frame), where the frame's colour is the person's or the
-    skin's. The same background model run alone with that mask gives the same foreground."""
+    """TR §3.5's no-update mask: before START what moved in the previous frame; from START the previous
+    frame's regions other than the background (for the first segmented frame: the training phase's
+    motion or the person's colours), where the frame's colour is the person's or the skin's. The same
+    background model run alone with that mask gives the same foreground."""
     _, _, models, _ = fitted
     frames, _ = _scene(leaves=True)  # the same frames before START, so the same colour models
     options = hog_jax.VideoOptions(person_frames=4)
     seg = hog_jax.segment_recording(models, frames, START, options)
     labels, fg = np.asarray(seg.labels), np.asarray(seg.foreground)
-    claimed = np.zeros((T, H, W), bool)
-    claimed[START] = fg[START - 1]
-    claimed[START + 1:] = labels[START:-1] != BACKGROUND
     unit = jnp.asarray(frames, jnp.float32) / 255.0
     density = [np.asarray(gmm_log_prob(g, unit)) for g in (models.background, models.person, models.skin)]
-    held = claimed & (np.maximum(density[1], density[2]) > density[0])
-    held[:START] = False
+    coloured = np.maximum(density[1], density[2]) > density[0]
+    claimed = np.zeros((T, H, W), bool)
+    claimed[START] = fg[START - 1] | coloured[START]
+    claimed[START + 1:] = labels[START:-1] != BACKGROUND
+    held = claimed & coloured
+    held[0], held[1:START] = False, fg[:START - 1]  # before START: what moved in the previous frame
     assert held[START + 1:].any() and (claimed & ~held)[START + 1:].any()
     _, alone = hog_jax.run_background(frames, held, options=options.background)
     np.testing.assert_array_equal(np.asarray(alone), fg)
