@@ -31,7 +31,7 @@ Video (LEVELSET TR §3-5; LfD 2009 §III-A; T frames, R regions):
 * Background (`background`, TR §3.5, eqs. 9-10, Stauffer–Grimson): `BackgroundStructure`,
   `BackgroundOptions`, `BackgroundState`, `init_background`, `run_background(frames (T, H, W, 3),
   no_update_masks)` -> (state, foreground (T, H, W)), `run_background_batch` (B videos);
-  `background.update` for one frame.
+  `background.update` for one frame, `background.log_density` for eq. 9's P(X).
 * Colour models (`colour_models`, TR §3.4, eq. 8): `fit_gmm_bic`, `fit_person_background_models`,
   `region_log_likelihoods`, `bic`, `gmm_n_params`, `ColourFit`, `ColourModels`, `ColourStructure`, `BICScores`.
 * Level sets (`levelset`, TR eqs. 5-7, 11, §5): `LevelSetStructure`, `LevelSetOptions`, `LevelSetResult`,
