@@ -46,7 +46,9 @@ is OpenCV MOG2's default floor (`fVarMin`), on the same total-squared-distance s
 Options (`BackgroundOptions`) are traced: changing alpha, T or the decision rule does not recompile.
 Vectorised over pixels, `lax.scan` over frames (`run_background`), `vmap` over videos
 (`run_background_batch`, in groups of `videos_per_step`). Internally the pixels lie on the last axis
-((K, N), (K, C, N), N = H W): every per-component quantity is one elementwise loop over the pixels.
+((K, N), (K, C, N), N = H W; the kernel is `hog_jax.background_kernel`): every per-component
+quantity is one elementwise loop over the pixels. On the CPU `threads` cuts the rows into stripes
+(or the videos into groups), each its own compiled call on a host thread.
 Validation (ValueError naming the argument) happens at the boundary, outside jit.
 """
 from __future__ import annotations
@@ -62,6 +64,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
+from hog_jax.background_kernel import (BackgroundState, KernelOptions, init_state, log_density_pixels_last, pixels_last,
+                                       scan_pixels_last, step_pixels_last, to_public)
 from lfd_common import as_array, check_choice, check_int, check_real
 
 __all__ = ["BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "log_density",
@@ -83,14 +87,6 @@ class BackgroundStructure:
         check_int(self.n_channels, "n_channels", min_value=1)
 
 
-class BackgroundState(NamedTuple):
-    """weights (H, W, K) summing to 1 per pixel, means (H, W, K, C), variances (H, W, K)."""
-
-    weights: Float[Array, "H W K"]
-    means: Float[Array, "H W K C"]
-    variances: Float[Array, "H W K"]
-
-
 class BackgroundOptions(NamedTuple):
     """Update and decision options (module docstring); validated by `check_options`, traced under jit."""
 
@@ -104,18 +100,7 @@ class BackgroundOptions(NamedTuple):
     decision: str = "stauffer_grimson"
 
 
-class _Opts(NamedTuple):  # the traced form of BackgroundOptions
-    alpha: jax.Array
-    use_eta: jax.Array
-    match2: jax.Array
-    init_variance: jax.Array
-    init_weight: jax.Array
-    min_variance: jax.Array
-    background_ratio: jax.Array
-    tr_rule: jax.Array
-
-
-def check_options(options: BackgroundOptions) -> _Opts:
+def check_options(options: BackgroundOptions) -> KernelOptions:
     """ValueError naming the field for alpha outside (0, 1], match_sigmas <= 0, variances <= 0 (or
     init_variance < min_variance), init_weight outside (0, 1], background_ratio outside (0, 1) or an
     unknown rho / decision."""
@@ -135,147 +120,8 @@ def check_options(options: BackgroundOptions) -> _Opts:
     check_choice(o.rho, "rho", _RHO)
     check_choice(o.decision, "decision", _DECISIONS)
     f = jnp.float32
-    return _Opts(f(alpha), jnp.bool_(o.rho == "alpha_eta"), f(lam * lam), f(v0), f(w0), f(vmin), f(ratio),
+    return KernelOptions(f(alpha), jnp.bool_(o.rho == "alpha_eta"), f(lam * lam), f(v0), f(w0), f(vmin), f(ratio),
                  jnp.bool_(o.decision == "matched"))
-
-
-# ----------------------------------------------------------------------------------- the kernel
-def _first_best(values, eligible, larger: bool):
-    """Index (N,) of the first k with the largest (or smallest) values[k] among eligible[k], by K
-    elementwise comparisons (XLA:CPU's index-carrying reductions, argmax over a short axis, are far
-    slower than this unrolled chain); 0 where nothing is eligible."""
-    best_val, best = values[0], jnp.zeros(values[0].shape, jnp.int32)
-    found = eligible[0] | jnp.zeros(values[0].shape, bool)
-    for k in range(1, len(values)):
-        v, e = values[k], eligible[k]
-        better = e & (~found | ((v > best_val) if larger else (v < best_val)))
-        best = jnp.where(better, k, best)
-        best_val = jnp.where(better, v, best_val)
-        found = found | e
-    return best, found
-
-
-def _in_background(w, var, best, ratio):
-    """(N,) bool: component `best` (N,) is among the first B in the w / sigma order (ties: lower index
-    first), i.e. the weight ranked strictly before it is <= T (then b = its rank does not yet exceed
-    T). w, var (K, N)."""
-    K = w.shape[0]
-    key = w * jax.lax.rsqrt(var)
-    key_best = sum((jnp.where(best == k, key[k], 0.0) for k in range(1, K)), jnp.where(best == 0, key[0], 0.0))
-    ahead = sum(jnp.where((key[j] > key_best) | ((key[j] == key_best) & (j < best)), w[j], 0.0) for j in range(K))
-    return ahead <= ratio
-
-
-def _once(o: _Opts, fn, *args):
-    """fn(*args), materialised: a conditional (on alpha > 0, always true after `check_options` but
-    only known at run time; the other branch returns zeros) whose outputs XLA must store. XLA:CPU
-    drops optimization barriers before fusing, and otherwise recomputes a chain of cheap per-pixel
-    operations inside every one of its consumers, which made a frame several times slower."""
-    def never(*a):
-        return jax.tree.map(jnp.zeros_like, jax.eval_shape(fn, *a))
-
-    return jax.lax.cond(o.alpha > 0, fn, never, *args)
-
-
-def _rows_sum(a):
-    """a[0] + ... + a[K-1] for a (K, ...) array, unrolled: XLA:CPU reduces a short leading axis far
-    more slowly than it adds the rows elementwise."""
-    return sum((a[k] for k in range(1, a.shape[0])), a[0])
-
-
-def step_pixels_last(w, mu, var, x, learn, o: _Opts):
-    """One frame with the pixels last: w, var (K, N), mu (K, C, N), x (C, N) float32, learn (N,)
-    bool. Returns the new (w, mu, var) and foreground (N,) bool.
-
-    Every per-component quantity is a (K, N) array computed by broadcasting (one loop for all K),
-    every choice among components an unrolled chain of K comparisons (no argmax: index-carrying
-    reductions are slow on XLA:CPU). The variance update uses |X - mu_new|^2 = (1 - rho)^2 |X - mu|^2
-    (mu_new - X = (1 - rho)(mu - X)).
-    """
-    K, C = mu.shape[:2]
-    ks = jnp.arange(K)[:, None]
-
-    def decide(w, mu, var, x):  # the match (step 1 of the module docstring)
-        d2 = _rows_sum((x[:, None, :] - jnp.moveaxis(mu, 1, 0)) ** 2)  # (K, N)
-        match = (w > 0) & (d2 < o.match2 * var)
-        key = w * jax.lax.rsqrt(var)
-        best, any_match = _first_best(key, match, larger=True)
-        worst, _ = _first_best(key, jnp.ones_like(match), larger=False)
-        return best, any_match, worst, d2
-
-    def rates(w, var, best, any_match, worst, d2):  # eq. 10's M and rho, the replacement, new weights
-        hit = (ks == best) & any_match & learn
-        replace = (ks == worst) & ~any_match & learn
-        new_w = jnp.where(replace, o.init_weight, (1.0 - o.alpha) * w + o.alpha * hit)
-        new_w = jnp.where(learn, new_w / _rows_sum(new_w), w)
-
-        def alpha_eta(d2, var):  # rho = alpha eta(X | mu, sigma^2 I), clipped to 1
-            return jnp.minimum(o.alpha * jnp.exp(-0.5 * d2 / var - 0.5 * C * jnp.log(2 * jnp.pi * var)), 1.0)
-
-        def constant(d2, var):  # the TR's rho = alpha needs no exp / log
-            return jnp.broadcast_to(o.alpha, var.shape)
-
-        rho = jnp.where(hit, jax.lax.cond(o.use_eta, alpha_eta, constant, d2, var), 0.0)
-        return new_w, hit, replace, rho
-
-    best, any_match, worst, d2 = _once(o, decide, w, mu, var, x)
-    new_w, hit, replace, rho = _once(o, rates, w, var, best, any_match, worst, d2)
-    new_mu = jnp.where(replace[:, None], x[None], mu + rho[:, None] * (x[None] - mu))
-    new_var = jnp.where(replace, o.init_variance, jnp.where(
-        hit, jnp.maximum((1.0 - rho) * var + rho * (1.0 - rho) ** 2 * d2, o.min_variance), var))
-
-    def classify(new_w, new_var, best, any_match):
-        return ~any_match | (~o.tr_rule & ~_in_background(new_w, new_var, best, o.background_ratio))
-
-    foreground = _once(o, classify, new_w, new_var, best, any_match)
-    return new_w, new_mu, new_var, foreground
-
-
-def log_density_pixels_last(w, mu, var, x, scale: float = 255.0):
-    """Eq. 9's log P(X) of every pixel under its mixture, with the pixels last (w, var (K, N), mu
-    (K, C, N), x (C, N)), in the coordinates X / scale: each component isotropic with per-channel
-    variance sigma^2 / C (sigma^2 tracks the total squared distance over the C channels, module
-    docstring). Empty components (weight 0) add nothing."""
-    C = mu.shape[1]
-    d2 = _rows_sum((x[:, None, :] - jnp.moveaxis(mu, 1, 0)) ** 2)  # (K, N)
-    per_channel = var / (C * scale * scale)
-    log_comp = -0.5 * C * jnp.log(2 * jnp.pi * per_channel) - 0.5 * C * d2 / var
-    log_w = jnp.where(w > 0, jnp.log(jnp.where(w > 0, w, 1.0)), -jnp.inf)
-    return jax.nn.logsumexp(log_w + log_comp, axis=0)
-
-
-def scan_pixels_last(w, mu, var, frames, masks, o: _Opts):
-    """frames (T, H, W, C) any real dtype, masks (T, H, W) bool -> state, foreground (T, N)."""
-    T, C = frames.shape[0], frames.shape[-1]
-    xs = jnp.moveaxis(frames.reshape(T, -1, C), 2, 1)  # (T, C, N), still in the input dtype
-
-    def body(carry, inp):
-        x, m = inp
-        *state, fg = step_pixels_last(*carry, x.astype(jnp.float32), ~m, o)
-        return tuple(state), fg
-
-    return jax.lax.scan(body, (w, mu, var), (xs, masks.reshape(T, -1)))
-
-
-def pixels_last(state: BackgroundState):
-    """The kernel's layout of a state: weights (K, N), means (K, C, N), variances (K, N), N = H W."""
-    H, W, K = state.weights.shape
-    return (state.weights.reshape(H * W, K).T, jnp.moveaxis(state.means.reshape(H * W, K, -1), 0, 2),
-            state.variances.reshape(H * W, K).T)
-
-
-def _to_public(w, mu, var, H, W) -> BackgroundState:
-    K = w.shape[0]
-    return BackgroundState(w.T.reshape(H, W, K), jnp.moveaxis(mu, 2, 0).reshape(H, W, K, -1),
-                           var.T.reshape(H, W, K))
-
-
-def init_state(frame, K: int, o: _Opts) -> BackgroundState:
-    H, W, C = frame.shape
-    x = frame.astype(jnp.float32)
-    weights = jnp.zeros((H, W, K), jnp.float32).at[..., 0].set(1.0)
-    means = jnp.broadcast_to(x[:, :, None, :], (H, W, K, C))
-    return BackgroundState(weights, means, jnp.full((H, W, K), o.init_variance, jnp.float32))
 
 
 @jax.jit
@@ -284,7 +130,7 @@ def _update_jit(state, frame, mask, o):
     w, mu, var = pixels_last(state)
     x = jnp.moveaxis(frame.reshape(H * W, -1), 1, 0).astype(jnp.float32)
     *new, fg = step_pixels_last(w, mu, var, x, ~mask.reshape(-1), o)
-    return _to_public(*new, H, W), fg.reshape(H, W)
+    return to_public(*new, H, W), fg.reshape(H, W)
 
 
 def _run_one(state, frames, masks, o):
@@ -292,7 +138,7 @@ def _run_one(state, frames, masks, o):
     H, W = frames.shape[1:3]
     masks = jnp.zeros(frames.shape[:3], bool) if masks is None else masks
     (w, mu, var), fg = scan_pixels_last(*pixels_last(state), frames, masks, o)
-    return _to_public(w, mu, var, H, W), fg.reshape(-1, H, W)
+    return to_public(w, mu, var, H, W), fg.reshape(-1, H, W)
 
 
 _run_jit = jax.jit(_run_one)

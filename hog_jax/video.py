@@ -55,7 +55,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int, Key, Real
 
 from hog_jax._checks import check_key
-from hog_jax import background as bg
+from hog_jax import background_kernel as bgk
+from hog_jax.background import check_options as check_background_options
 from hog_jax.background import BackgroundOptions, BackgroundStructure, run_background
 from hog_jax.colour_models import ColourFit, fit_person_background_models
 from hog_jax import levelset
@@ -235,11 +236,11 @@ def _segment_one(structure: LevelSetStructure, frames, densities, start: int, ma
     docstring)."""
     T, H, W, C = frames.shape
     xs = jnp.moveaxis(frames.reshape(T, H * W, C), 2, 1)  # (T, C, N), the background kernel's layout
-    state = bg.pixels_last(bg.init_state(frames[0], BackgroundStructure().n_components, bo))
+    state = bgk.pixels_last(bgk.init_state(frames[0], BackgroundStructure().n_components, bo))
 
     def training(carry, x):  # no labels yet: what moved in the previous frame is held (TR §3.5)
         state, moved = carry
-        *state, fg = bg.step_pixels_last(*state, x.astype(jnp.float32), ~moved, bo)
+        *state, fg = bgk.step_pixels_last(*state, x.astype(jnp.float32), ~moved, bo)
         return (tuple(state), fg), fg
 
     (state, _), fg_before = jax.lax.scan(training, (state, jnp.zeros(H * W, bool)), xs[:start])
@@ -250,9 +251,9 @@ def _segment_one(structure: LevelSetStructure, frames, densities, start: int, ma
         x = x.astype(jnp.float32)
         held = claimed & _person_coloured(dens).reshape(-1)
         gmm = dens[0].reshape(-1)
-        mixture = jnp.logaddexp(gmm, bg.log_density_pixels_last(*state, x)) - jnp.log(2.0)  # before the update
+        mixture = jnp.logaddexp(gmm, bgk.log_density_pixels_last(*state, x)) - jnp.log(2.0)  # before the update
         background = jnp.where(claimed, gmm, mixture)
-        *state, fg = bg.step_pixels_last(*state, x, ~held, bo)
+        *state, fg = bgk.step_pixels_last(*state, x, ~held, bo)
         fg = fg.reshape(H, W)
         dens = dens.at[0].set(background.reshape(H, W))
         res = levelset.segment_frame(structure, levelset.FIXED, _scores(dens, fg, *margins), phi, t == 0, lo)
@@ -295,7 +296,7 @@ def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], 
     shape = tuple(arr.shape[-3:-1])
     structure = LevelSetStructure(len(REGIONS), shape, _coarse(shape))
     x = jnp.asarray(arr if batched else arr[None])
-    out = _segment_jit(structure, models, x, start, margins, bg.check_options(options.background),
+    out = _segment_jit(structure, models, x, start, margins, check_background_options(options.background),
                        levelset.check_options(options.levelset))
     seg = VideoSegmentation(*out)
     return seg if batched else jax.tree.map(lambda a: a[0], seg)
