@@ -1,0 +1,192 @@
+"""Likelihoods of the manipulated object around the hand from gradient phase (LfD 2009 §III-B,
+eqs. 1-4, Fig. 3b-g): which pixels of a window around the hand move with the hand (temporal cue)
+and lie at the hand's depth (stereo cue).
+
+Shapes: T frames, H x W images, a window of h x w = (2 hh + 1) x (2 hw + 1) pixels around the hand
+position p (row, column), delta its offsets. Positions are rounded to whole pixels.
+
+* Phase (`gradient_phase`): Psi = arctan((dI/dy) / (dI/dx)) of the Gaussian-blurred grey image (the
+  paper blurs "increasing image scale ... making the phase less noisy"), central differences, in
+  *degrees* in [-90, 90). Phase differences are taken modulo 180 degrees into [-90, 90) (an
+  orientation, not a direction). Degrees, because the paper's sigma_m is "the width of the hand"
+  (tens of pixels) and its ratio threshold exp(0.01): in radians a difference is at most pi/2, so
+  |log r| <= (pi/2)^2 / (2 sigma^2) < 0.003 for sigma = 20 and no pixel could pass the threshold.
+* Temporal cue (eq. 1 and the text's background hypothesis): foreground G(Psi_t(p_t + delta) -
+  Psi_{t-1}(p_{t-1} + delta); 0, sigma_m), the object translated with the hand; background the same
+  with Psi_{t-1}(p_t + delta), a static scene. Eq. 2 as printed repeats eq. 1's argument; the text
+  ("the rest of the scene near the hand is static") compares the same image position at t and
+  t - 1, which is what is computed here. log r_m = log fg - log bg.
+* Stereo cue (eqs. 3-4): foreground G(Psi^L_t(p^L_t + delta) - Psi^R_t(p^R_t + delta); 0,
+  sigma_s), the pixel at the hand's disparity; background the mean over N random disparity offsets
+  rho_n (whole pixels, uniform in [-max_offset, max_offset], along the rows: rectified cameras) of
+  G(Psi^L_t(p^L_t + delta) - Psi^R_t(p^R_t + (0, rho_n) + delta)), the pixel at any depth.
+  log r_s = log fg - log bg.
+
+Pixels of a window outside the image have no phase: they are flagged (`valid` False) and their log
+ratio is 0; a background sample outside the image is left out of eq. 4's mean (a pixel with none
+inside is invalid). Everything is vmapped over frames; the Gaussians' normalisers cancel in the
+ratios.
+"""
+from __future__ import annotations
+
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Key
+
+from hog_jax._checks import check_key
+from lfd_common import as_array, check_int, check_real
+
+__all__ = ["LogRatio", "gradient_phase", "stereo_log_ratio", "temporal_log_ratio"]
+
+
+class LogRatio(NamedTuple):
+    """log_ratio (T, h, w): log P_fg - log P_bg of each window pixel (0 where not valid); valid
+    (T, h, w) bool: every sample the pixel needs lies inside the image."""
+
+    log_ratio: Float[Array, "T h w"]
+    valid: Bool[Array, "T h w"]
+
+
+def _gaussian_kernel(sigma: float) -> np.ndarray:
+    """Normalised samples of a Gaussian at the integers, radius round(4 sigma) (scipy's default)."""
+    radius = int(4.0 * sigma + 0.5)
+    x = np.arange(-radius, radius + 1, dtype=np.float64)
+    k = np.exp(-0.5 * (x / sigma) ** 2)
+    return (k / k.sum()).astype(np.float32)
+
+
+def _blur(image, kernel):
+    """Separable Gaussian blur of (H, W) with symmetric padding (d c b a | a b c d)."""
+    r = (len(kernel) - 1) // 2
+    padded = jnp.pad(image, r, mode="symmetric")
+    H, W = image.shape
+    rows = sum(kernel[i] * padded[i:i + H, :] for i in range(len(kernel)))
+    return sum(kernel[i] * rows[:, i:i + W] for i in range(len(kernel)))
+
+
+@jax.jit
+def _phase(images, kernel):
+    def one(image):
+        gy, gx = jnp.gradient(_blur(image, kernel))
+        return _wrap(jnp.degrees(jnp.arctan2(gy, gx)))
+    return jax.vmap(one)(images)
+
+
+def _wrap(d):
+    """Degrees modulo 180 into [-90, 90)."""
+    return jnp.mod(d + 90.0, 180.0) - 90.0
+
+
+def gradient_phase(images: Float[ArrayLike, "*T H W"], blur_sigma: float = 2.0) -> Float[Array, "*T H W"]:
+    """Psi (degrees in [-90, 90)) of grey images (.., H, W) (module docstring). ValueError naming the
+    argument for NaN, fewer than 2 rows or columns, or blur_sigma <= 0."""
+    arr = as_array(images, "images", dtype=np.float32)
+    if arr.ndim < 2 or min(arr.shape[-2:]) < 2:
+        raise ValueError(f"images: expected (..., H, W) with H, W >= 2, got shape {arr.shape}")
+    sigma = check_real(blur_sigma, "blur_sigma", min_value=0.0, exclusive_min=True)
+    flat = arr.reshape(-1, *arr.shape[-2:])
+    return _phase(jnp.asarray(flat), _gaussian_kernel(sigma)).reshape(arr.shape)
+
+
+def _windows(phase, centres, half: tuple[int, int]):
+    """phase (H, W) -> the (h, w) window around each centre (M, 2): a gather, NaN outside the image."""
+    H, W = phase.shape
+    hh, hw = half
+    rows = centres[:, 0, None, None] + jnp.arange(-hh, hh + 1)[None, :, None]  # (M, h, 1)
+    cols = centres[:, 1, None, None] + jnp.arange(-hw, hw + 1)[None, None, :]  # (M, 1, w)
+    inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
+    return jnp.where(inside, phase[jnp.clip(rows, 0, H - 1), jnp.clip(cols, 0, W - 1)], jnp.nan)
+
+
+def _log_gauss(d, sigma):
+    return -0.5 * (_wrap(d) / sigma) ** 2
+
+
+@partial(jax.jit, static_argnames="half")
+def _temporal(psi, centres, sigma, half: tuple[int, int]):
+    """psi (T, H, W), centres (T, 2) -> LogRatio of frames 1..T-1 (T - 1, h, w)."""
+    def window(p, c):
+        return _windows(p, c[None], half)[0]
+
+    now = jax.vmap(window)(psi[1:], centres[1:])
+    moved = jax.vmap(window)(psi[:-1], centres[:-1])
+    static = jax.vmap(window)(psi[:-1], centres[1:])
+    ratio = _log_gauss(now - moved, sigma) - _log_gauss(now - static, sigma)
+    valid = jnp.isfinite(ratio)
+    return LogRatio(jnp.where(valid, ratio, 0.0), valid)
+
+
+@partial(jax.jit, static_argnames="half")
+def _stereo(left, right, centres_left, centres_right, offsets, sigma, half: tuple[int, int]):
+    """left, right (T, H, W), centres (T, 2), offsets (N,) -> LogRatio (T, h, w)."""
+    def frame(psi_l, psi_r, c_l, c_r):
+        window_l = _windows(psi_l, c_l[None], half)[0]
+        shifted = c_r[None] + jnp.stack([jnp.zeros_like(offsets), offsets], axis=1)
+        windows_r = _windows(psi_r, jnp.concatenate([c_r[None], shifted]), half)
+        fg = _log_gauss(window_l - windows_r[0], sigma)
+        samples = _log_gauss(window_l[None] - windows_r[1:], sigma)  # (N, h, w), NaN outside
+        inside = jnp.isfinite(samples)
+        n_inside = jnp.sum(inside, axis=0)
+        bg = jax.nn.logsumexp(jnp.where(inside, samples, -jnp.inf), axis=0) - jnp.log(jnp.maximum(n_inside, 1))
+        valid = jnp.isfinite(fg) & (n_inside > 0)
+        return LogRatio(jnp.where(valid, fg - jnp.where(valid, bg, 0.0), 0.0), valid)
+
+    return jax.vmap(frame)(left, right, centres_left, centres_right)
+
+
+def _check_positions(positions, name: str, n_frames: int) -> np.ndarray:
+    arr = as_array(positions, name, shape=(n_frames, 2))
+    return np.round(arr).astype(np.int32)
+
+
+def _check_window(half_window) -> tuple[int, int]:
+    if np.ndim(half_window) != 1 or len(half_window) != 2:
+        raise ValueError(f"half_window: expected (rows, columns), got {half_window!r}")
+    return tuple(check_int(v, "half_window", min_value=0) for v in half_window)
+
+
+def _check_phase(phase, name: str) -> np.ndarray:
+    arr = as_array(phase, name, ndim=3, dtype=np.float32)
+    if arr.shape[0] < 1:
+        raise ValueError(f"{name}: expected (T, H, W) phase images with T >= 1, got shape {arr.shape}")
+    return arr
+
+
+def temporal_log_ratio(phase: Float[ArrayLike, "T H W"], hand: Float[ArrayLike, "T 2"],
+                       half_window: tuple[int, int], sigma: float) -> LogRatio:
+    """log r_m (eq. 1 over the text's static background) of the window around the hand in frames
+    1..T-1 of a phase video (T, H, W) (`gradient_phase`) with the hand at `hand` (T, 2) (row,
+    column, rounded) -> `LogRatio` (T - 1, h, w). ValueError naming the argument (T < 2, NaN phases
+    or positions, sigma <= 0)."""
+    psi = _check_phase(phase, "phase")
+    if psi.shape[0] < 2:
+        raise ValueError(f"phase: the temporal cue needs T >= 2 frames, got {psi.shape[0]}")
+    centres = _check_positions(hand, "hand", psi.shape[0])
+    s = check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
+    return _temporal(jnp.asarray(psi), jnp.asarray(centres), np.float32(s), _check_window(half_window))
+
+
+def stereo_log_ratio(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right: Float[ArrayLike, "T H W"],
+                     hand_left: Float[ArrayLike, "T 2"], hand_right: Float[ArrayLike, "T 2"],
+                     half_window: tuple[int, int], sigma: float, max_offset: int,
+                     n_samples: int = 100) -> LogRatio:
+    """log r_s (eq. 3 over eq. 4) of the window around the hand in the left phase images (T, H, W),
+    the hand at `hand_left` / `hand_right` (T, 2) (row, column, rounded) in the two views; eq. 4's N
+    = `n_samples` offsets drawn from `key` in [-max_offset, max_offset] -> `LogRatio` (T, h, w).
+    ValueError naming the argument (views of other shapes: `right`)."""
+    check_key(key, "key")
+    psi_l, psi_r = _check_phase(left, "left"), _check_phase(right, "right")
+    if psi_l.shape != psi_r.shape:
+        raise ValueError(f"right: expected the shape of left {psi_l.shape}, got {psi_r.shape}")
+    c_l = _check_positions(hand_left, "hand_left", psi_l.shape[0])
+    c_r = _check_positions(hand_right, "hand_right", psi_l.shape[0])
+    s = check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
+    d = check_int(max_offset, "max_offset", min_value=1)
+    n = check_int(n_samples, "n_samples", min_value=1)
+    offsets = jax.random.randint(key, (n,), -d, d + 1)
+    return _stereo(jnp.asarray(psi_l), jnp.asarray(psi_r), jnp.asarray(c_l), jnp.asarray(c_r), offsets,
+                   np.float32(s), _check_window(half_window))

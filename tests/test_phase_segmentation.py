@@ -1,0 +1,145 @@
+"""hog_jax.phase_segmentation (LfD 2009 §III-B, eqs. 1-4) against float64 NumPy / SciPy, on a
+synthetic scene whose object is known: a textured patch carried by the 'hand' over a static
+textured background, seen by a rectified pair in which the object is nearer than the background."""
+import jax
+import numpy as np
+import pytest
+from scipy.ndimage import binary_erosion, gaussian_filter
+
+from hog_jax.phase_segmentation import gradient_phase, stereo_log_ratio, temporal_log_ratio
+
+H, W, T = 48, 64, 4
+HALF = (10, 11)
+BLUR = 1.0
+SIDE = 15
+SIGMA = 20.0  # degrees: the hand's width in pixels, as the paper (module docstring)
+STEP = np.array([1, 2])  # the hand's motion per frame (rows, columns)
+DISPARITY_BG, DISPARITY_OBJ = 2, 6
+
+
+def _scene():
+    """left, right (T, H, W) float64 grey images, hand positions (T, 2) in each view, object mask
+    (T, H, W) in the left view."""
+    rng = np.random.default_rng(0)
+    background = gaussian_filter(rng.uniform(0, 255, (H, W + 20)), 1.0)
+    patch = gaussian_filter(rng.uniform(0, 255, (SIDE, SIDE)), 0.8)
+    left, right, mask, hand_l, hand_r = [], [], [], [], []
+    for t in range(T):
+        centre = np.array([20, 24]) + t * STEP
+        views = []
+        for shift_bg, shift_obj in ((0, 0), (DISPARITY_BG, DISPARITY_OBJ)):
+            img = background[:, shift_bg:shift_bg + W].copy()
+            r, c = centre[0] - SIDE // 2, centre[1] - SIDE // 2 - shift_obj
+            img[r:r + SIDE, c:c + SIDE] = patch
+            views.append(img)
+        m = np.zeros((H, W), bool)
+        m[centre[0] - SIDE // 2:centre[0] + SIDE // 2 + 1, centre[1] - SIDE // 2:centre[1] + SIDE // 2 + 1] = True
+        left.append(views[0]), right.append(views[1]), mask.append(m)
+        hand_l.append(centre), hand_r.append(centre - np.array([0, DISPARITY_OBJ]))
+    return np.stack(left), np.stack(right), np.stack(hand_l), np.stack(hand_r), np.stack(mask)
+
+
+def _phase_ref(images, sigma):
+    out = []
+    for img in images:
+        gy, gx = np.gradient(gaussian_filter(img, sigma, mode="reflect", truncate=4.0))
+        out.append(np.mod(np.degrees(np.arctan2(gy, gx)) + 90.0, 180.0) - 90.0)
+    return np.stack(out)
+
+
+def _wrap(d):
+    return np.mod(d + 90.0, 180.0) - 90.0
+
+
+def _at(psi, centre, dr, dc):
+    r, c = centre[0] + dr, centre[1] + dc
+    return psi[r, c] if 0 <= r < psi.shape[0] and 0 <= c < psi.shape[1] else np.nan
+
+
+def _temporal_ref(psi, hand):
+    out = np.zeros((T - 1, 2 * HALF[0] + 1, 2 * HALF[1] + 1))
+    for t in range(1, T):
+        for i, dr in enumerate(range(-HALF[0], HALF[0] + 1)):
+            for j, dc in enumerate(range(-HALF[1], HALF[1] + 1)):
+                now = _at(psi[t], hand[t], dr, dc)
+                fg = _wrap(now - _at(psi[t - 1], hand[t - 1], dr, dc))
+                bg = _wrap(now - _at(psi[t - 1], hand[t], dr, dc))
+                out[t - 1, i, j] = (bg ** 2 - fg ** 2) / (2 * SIGMA ** 2)
+    return out
+
+
+def _stereo_ref(psi_l, psi_r, hand_l, hand_r, offsets):
+    out = np.zeros((T, 2 * HALF[0] + 1, 2 * HALF[1] + 1))
+    for t in range(T):
+        for i, dr in enumerate(range(-HALF[0], HALF[0] + 1)):
+            for j, dc in enumerate(range(-HALF[1], HALF[1] + 1)):
+                here = _at(psi_l[t], hand_l[t], dr, dc)
+                fg = -_wrap(here - _at(psi_r[t], hand_r[t], dr, dc)) ** 2 / (2 * SIGMA ** 2)
+                samples = np.array([-_wrap(here - _at(psi_r[t], hand_r[t], dr, dc + o)) ** 2 / (2 * SIGMA ** 2)
+                                    for o in offsets])
+                samples = samples[np.isfinite(samples)]
+                out[t, i, j] = fg - np.log(np.mean(np.exp(samples)))
+    return out
+
+
+@pytest.fixture(scope="module")
+def scene():
+    left, right, hand_l, hand_r, mask = _scene()
+    return (left, right, hand_l, hand_r, mask, np.asarray(gradient_phase(left, BLUR)),
+            np.asarray(gradient_phase(right, BLUR)))
+
+
+def _window_mask(mask, hand, erode: int = 0):
+    """The object mask in the window around the hand, eroded by `erode` pixels (away from where the
+    blur mixes the object's phase with the background's)."""
+    if erode:
+        mask = np.stack([binary_erosion(m, iterations=erode) for m in mask])
+    return np.stack([np.pad(m, 20)[c[0] - HALF[0] + 20:c[0] + HALF[0] + 21, c[1] - HALF[1] + 20:c[1] + HALF[1] + 21]
+                     for m, c in zip(mask, hand)])
+
+
+def test_phase_matches_scipy(scene):
+    left, _, _, _, _, psi, _ = scene
+    diff = _wrap(psi - _phase_ref(left, BLUR))
+    assert np.abs(diff).max() < 0.05  # degrees; float32 against float64
+    assert psi.min() >= -90.0 and psi.max() < 90.0
+
+
+def test_temporal_ratio_is_eq1_over_the_static_background(scene):
+    _, _, hand_l, _, mask, psi, _ = scene
+    got = temporal_log_ratio(psi, hand_l, HALF, SIGMA)
+    want = _temporal_ref(psi.astype(np.float64), hand_l)
+    assert np.asarray(got.valid).all()
+    np.testing.assert_allclose(np.asarray(got.log_ratio), want, atol=2e-4)
+    core, obj = _window_mask(mask, hand_l, erode=3)[1:], _window_mask(mask, hand_l)[1:]
+    assert np.mean(want[core] > 0.01) > 0.8 and np.mean(want[~obj] < 0.01) > 0.6  # the object moves with the hand
+
+
+def test_stereo_ratio_is_eq3_over_eq4(scene):
+    _, _, hand_l, hand_r, mask, psi_l, psi_r = scene
+    key = jax.random.key(3)
+    got = stereo_log_ratio(key, psi_l, psi_r, hand_l, hand_r, HALF, SIGMA, max_offset=10, n_samples=50)
+    offsets = np.asarray(jax.random.randint(key, (50,), -10, 11))
+    want = _stereo_ref(psi_l.astype(np.float64), psi_r.astype(np.float64), hand_l, hand_r, offsets)
+    np.testing.assert_allclose(np.asarray(got.log_ratio), want, atol=2e-4)
+    core = _window_mask(mask, hand_l, erode=3)
+    assert np.mean(want[core] > 0.01) > 0.8  # the object lies at the hand's disparity
+
+
+def test_windows_outside_the_image_are_flagged_and_bad_input_named(scene):
+    _, _, hand_l, _, _, psi, _ = scene
+    corner = np.array([[0, 0], [1, 2]])
+    res = temporal_log_ratio(psi[:2], corner, HALF, SIGMA)
+    valid = np.asarray(res.valid)[0]
+    assert not valid[:HALF[0]].any() and valid[HALF[0] + 1:, HALF[1] + 2:].all()
+    assert np.isfinite(np.asarray(res.log_ratio)).all() and np.all(np.asarray(res.log_ratio)[0][~valid] == 0)
+    with pytest.raises(ValueError, match="hand: contains"):
+        temporal_log_ratio(psi, np.full((T, 2), np.nan), HALF, SIGMA)
+    with pytest.raises(ValueError, match="phase: the temporal cue needs T >= 2"):
+        temporal_log_ratio(psi[:1], hand_l[:1], HALF, SIGMA)
+    with pytest.raises(ValueError, match="right: expected the shape of left"):
+        stereo_log_ratio(jax.random.key(0), psi, psi[:, :-1], hand_l, hand_l, HALF, SIGMA, 5)
+    with pytest.raises(ValueError, match="sigma: must be > 0"):
+        temporal_log_ratio(psi, hand_l, HALF, 0.0)
+    with pytest.raises(ValueError, match="half_window"):
+        temporal_log_ratio(psi, hand_l, (3,), SIGMA)
