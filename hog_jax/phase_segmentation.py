@@ -32,6 +32,7 @@ from __future__ import annotations
 from functools import partial
 from typing import NamedTuple
 
+import cv2
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -40,7 +41,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Key
 from hog_jax._checks import check_key
 from lfd_common import as_array, check_int, check_real
 
-__all__ = ["LogRatio", "gradient_phase", "stereo_log_ratio", "temporal_log_ratio"]
+__all__ = ["LogRatio", "gradient_phase", "object_masks", "stereo_log_ratio", "temporal_log_ratio"]
 
 
 class LogRatio(NamedTuple):
@@ -190,3 +191,81 @@ def stereo_log_ratio(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right
     offsets = jax.random.randint(key, (n,), -d, d + 1)
     return _stereo(jnp.asarray(psi_l), jnp.asarray(psi_r), jnp.asarray(c_l), jnp.asarray(c_r), offsets,
                    np.float32(s), _check_window(half_window))
+
+
+def _stack(masks: np.ndarray, gap: int) -> np.ndarray:
+    """Frames (T, h, w) one above the other with `gap` blank rows after each, as uint8: one OpenCV
+    call for all frames, and no operation of reach < gap crosses from one frame into the next."""
+    T, h, w = masks.shape
+    out = np.zeros((T, h + gap, w), np.uint8)
+    out[:, :h] = masks
+    return out.reshape(T * (h + gap), w)
+
+
+def _unstack(image: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
+    T, h, w = shape
+    return image.reshape(T, -1, w)[:, :h] > 0
+
+
+def _nearest_large_component(fg: np.ndarray, min_fraction: float) -> np.ndarray:
+    """(T, h, w): per frame the 8-connected component of fg with more than `min_fraction` of the
+    frame's foreground pixels whose nearest pixel is closest to the window centre (the hand)."""
+    T, h, w = fg.shape
+    n, labels = cv2.connectedComponents(_stack(fg, 1), connectivity=8)
+    labels = labels.reshape(T, h + 1, w)[:, :h]
+    f, r, c = np.nonzero(labels)
+    lab = labels[f, r, c]
+    area = np.bincount(lab, minlength=n)
+    frame = np.zeros(n, np.int64)
+    frame[lab] = f
+    distance = np.full(n, np.inf)
+    np.minimum.at(distance, lab, np.hypot(r - h // 2, c - w // 2))
+    total = np.bincount(f, minlength=T)
+    eligible = (np.arange(n) > 0) & (area > min_fraction * total[frame])
+    chosen = np.zeros(T, np.int64)
+    ids = np.flatnonzero(eligible)
+    for_frame = ids[np.lexsort((ids, distance[ids], frame[ids]))]  # by frame, nearest first, lowest id on ties
+    firsts = for_frame[np.r_[True, frame[for_frame][1:] != frame[for_frame][:-1]]] if ids.size else ids
+    chosen[frame[firsts]] = firsts
+    return (labels == chosen[:, None, None]) & (chosen[:, None, None] > 0)
+
+
+def _fill_holes(masks: np.ndarray) -> np.ndarray:
+    """Background pixels (4-connected) that do not reach the border of their frame become foreground."""
+    T, h, w = masks.shape
+    inverse = ~masks
+    n, labels = cv2.connectedComponents(_stack(inverse, 1), connectivity=4)  # the gaps join only border regions
+    labels = labels.reshape(T, h + 1, w)
+    border = np.zeros(n, bool)
+    border[labels[:, 0]] = border[labels[:, h - 1]] = True
+    border[labels[:, :h, 0]] = border[labels[:, :h, -1]] = True
+    return masks | (inverse & ~border[labels[:, :h]])
+
+
+def object_masks(temporal: LogRatio, stereo: LogRatio, hand: Bool[ArrayLike, "T h w"], threshold: float = 0.01,
+                 min_fraction: float = 0.1, morphology: int = 2) -> tuple[Bool[Array, "T h w"], Bool[Array, "T"]]:
+    """The object mask in each window (LfD §III-B, assumption 4, Fig. 3h-j): pixels where both cues
+    are valid and log r_m + log r_s > threshold (the paper's exp(0.01) on r_m r_s), the hand's own
+    pixels (`hand`, (T, h, w)) removed; of the 8-connected regions larger than `min_fraction` of
+    the frame's foreground pixels the one nearest the window centre (the hand); its holes filled;
+    then `morphology` 3 x 3 erosions and as many dilations (OpenCV, all frames in one call). Returns
+    (masks (T, h, w), found (T,): a region was selected). ValueError naming the argument."""
+    for name, cue in (("temporal", temporal), ("stereo", stereo)):
+        if not isinstance(cue, LogRatio):
+            raise ValueError(f"{name}: expected a LogRatio, got {type(cue).__name__}")
+    shape = np.shape(temporal.log_ratio)
+    if np.shape(stereo.log_ratio) != shape or len(shape) != 3:
+        raise ValueError(f"stereo: expected log ratios of the temporal cue's shape {shape}, "
+                         f"got {np.shape(stereo.log_ratio)}")
+    hand_mask = as_array(hand, "hand", shape=shape, dtype=bool)
+    th = check_real(threshold, "threshold")
+    fraction = check_real(min_fraction, "min_fraction", min_value=0.0, max_value=1.0)
+    k = check_int(morphology, "morphology", min_value=0)
+    joint = np.asarray(temporal.log_ratio) + np.asarray(stereo.log_ratio)
+    fg = np.asarray(temporal.valid) & np.asarray(stereo.valid) & (joint > th) & ~hand_mask
+    mask = _fill_holes(_nearest_large_component(fg, fraction))
+    if k:
+        kernel = np.ones((3, 3), np.uint8)
+        stacked = _stack(mask, k + 1)
+        mask = _unstack(cv2.dilate(cv2.erode(stacked, kernel, iterations=k), kernel, iterations=k), mask.shape)
+    return jnp.asarray(mask), jnp.asarray(mask.any(axis=(1, 2)))

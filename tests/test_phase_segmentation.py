@@ -4,9 +4,10 @@ textured background, seen by a rectified pair in which the object is nearer than
 import jax
 import numpy as np
 import pytest
+from scipy import ndimage
 from scipy.ndimage import binary_erosion, gaussian_filter
 
-from hog_jax.phase_segmentation import gradient_phase, stereo_log_ratio, temporal_log_ratio
+from hog_jax.phase_segmentation import LogRatio, gradient_phase, object_masks, stereo_log_ratio, temporal_log_ratio
 
 H, W, T = 48, 64, 4
 HALF = (10, 11)
@@ -143,3 +144,56 @@ def test_windows_outside_the_image_are_flagged_and_bad_input_named(scene):
         temporal_log_ratio(psi, hand_l, HALF, 0.0)
     with pytest.raises(ValueError, match="half_window"):
         temporal_log_ratio(psi, hand_l, (3,), SIGMA)
+
+
+def _object_masks_ref(fg, min_fraction, k):
+    """SciPy: 8-connected labels, the nearest region above the size floor, holes filled, k
+    erosions (the outside counts as foreground, as OpenCV's default border) and k dilations."""
+    out = np.zeros_like(fg)
+    h, w = fg.shape[1:]
+    for t, f in enumerate(fg):
+        labels, n = ndimage.label(f, structure=np.ones((3, 3)))
+        best, best_d = 0, np.inf
+        for i in range(1, n + 1):
+            r, c = np.nonzero(labels == i)
+            d = np.hypot(r - h // 2, c - w // 2).min()
+            if len(r) > min_fraction * f.sum() and d < best_d:
+                best, best_d = i, d
+        m = ndimage.binary_fill_holes(labels == best) if best else np.zeros_like(f)
+        if k and m.any():
+            m = ndimage.binary_dilation(ndimage.binary_erosion(m, np.ones((3, 3)), k, border_value=1),
+                                        np.ones((3, 3)), k)
+        out[t] = m
+    return out
+
+
+def test_object_masks_match_scipy_and_find_the_object(scene):
+    _, _, hand_l, hand_r, mask, psi_l, psi_r = scene
+    temporal = temporal_log_ratio(psi_l, hand_l, HALF, SIGMA)
+    stereo = stereo_log_ratio(jax.random.key(3), psi_l[1:], psi_r[1:], hand_l[1:], hand_r[1:], HALF, SIGMA, 10, 50)
+    hand = np.zeros(np.shape(temporal.log_ratio), bool)
+    hand[:, HALF[0] - 1:HALF[0] + 2, HALF[1] - 1:HALF[1] + 2] = True  # the 'hand' at the window centre
+    got, found = object_masks(temporal, stereo, hand)
+    fg = (np.asarray(temporal.valid) & np.asarray(stereo.valid) & ~hand
+          & (np.asarray(temporal.log_ratio) + np.asarray(stereo.log_ratio) > 0.01))
+    np.testing.assert_array_equal(np.asarray(got), _object_masks_ref(fg, 0.1, 2))
+    truth = _window_mask(mask, hand_l)[1:]
+    got = np.asarray(got)
+    assert np.asarray(found).all()
+    assert (got & truth).sum() / (got | truth).sum() > 0.5
+
+
+def test_object_masks_holes_and_nothing_found():
+    """A ring's hole is filled; a frame with no foreground is flagged, its mask empty."""
+    ring = np.zeros((2, 15, 15), bool)
+    ring[0, 3:12, 3:12] = True
+    ring[0, 6:9, 6:9] = False
+    cue = LogRatio(jax.numpy.asarray(np.where(ring, 1.0, -1.0)), jax.numpy.ones(ring.shape, bool))
+    zero = LogRatio(jax.numpy.zeros(ring.shape), jax.numpy.ones(ring.shape, bool))
+    masks, found = object_masks(cue, zero, np.zeros(ring.shape, bool), morphology=0)
+    assert np.asarray(masks)[0, 3:12, 3:12].all() and np.asarray(masks)[0].sum() == 81
+    assert list(np.asarray(found)) == [True, False] and not np.asarray(masks)[1].any()
+    with pytest.raises(ValueError, match="stereo: expected log ratios"):
+        object_masks(cue, LogRatio(zero.log_ratio[:1], zero.valid[:1]), np.zeros(ring.shape, bool))
+    with pytest.raises(ValueError, match="hand: expected shape"):
+        object_masks(cue, zero, np.zeros((2, 15, 14), bool))
