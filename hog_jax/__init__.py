@@ -47,6 +47,8 @@ Video (LEVELSET TR §3-5; LfD 2009 §III-A; T frames, R regions):
 * Object around the hand (`phase_segmentation`, LfD 2009 §III-B, eqs. 1-4): `gradient_phase`,
   `temporal_log_ratio` (moves with the hand), `stereo_log_ratio` (at the hand's depth) -> `LogRatio`;
   `object_masks` (threshold, nearest large region, holes, opening: Fig. 3h-j).
+* Temporal segmentation (`events`, LfD §III-D): `filter_in_hand`, `periods_in_hand` -> `Periods`
+  (pick-up and put-down frames).
 
 Example::
 
@@ -87,6 +89,7 @@ from hog_jax.tracks import FACE, HAND, OTHER_HAND, HandFacePositions, hand_face_
 from hog_jax.video import (REGIONS, StereoSegmentation, VideoModels, VideoOptions, VideoSegmentation, fit_skin,
                            fit_video_models, region_scores, segment_recording, segment_stereo)
 from hog_jax.phase_segmentation import LogRatio, gradient_phase, object_masks, stereo_log_ratio, temporal_log_ratio
+from hog_jax.events import Periods, filter_in_hand, periods_in_hand
 from hog_jax.hog import HOGConfig, hog, hog_dim
 from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
                          quat_to_euler, vote)
@@ -111,4 +114,5 @@ __all__ = [
     "REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
     "fit_video_models", "region_scores", "segment_recording", "segment_stereo",
     "LogRatio", "gradient_phase", "object_masks", "stereo_log_ratio", "temporal_log_ratio",
+    "Periods", "filter_in_hand", "periods_in_hand",
 ]

@@ -1,0 +1,83 @@
+"""Temporal segmentation of a demonstration into primitive OACs (LfD 2009 §III-D, Fig. 8): every
+frame is "object in hand" where the object segmentation found a mask (`phase_segmentation.
+object_masks`' `found`), the sequence is filtered over time, and each remaining period from a
+pick-up (no object -> object) to a put-down (object -> no object) is one action.
+
+The filter: the text performs "an eroding and a dilating operation ... over time, to remove
+spurious positive or negative classifications". An erosion followed by a dilation (an opening)
+removes short positives but widens short gaps; a dilation followed by an erosion (a closing) fills
+short gaps. Both kinds of error are named, so both are applied: a closing, then an opening, each of
+`radius` frames (a run shorter than 2 radius + 1 frames of either kind goes). Then periods with an
+object in hand shorter than `min_duration_s` (1 s in the paper) are removed.
+
+Frames outside the recording count as "no object in hand" (a period cut by the end of the recording
+ends there: its put-down is the last frame + 1).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from jaxtyping import ArrayLike, Bool
+
+from lfd_common import as_array, check_int, check_real
+
+__all__ = ["Periods", "filter_in_hand", "periods_in_hand"]
+
+
+class Periods(NamedTuple):
+    """pickup, putdown (M,) int: the first frame with and the first frame after the object in hand of
+    each period, in order; in_hand (T,) bool: the filtered per-frame classification."""
+
+    pickup: np.ndarray
+    putdown: np.ndarray
+    in_hand: np.ndarray
+
+
+def _erode(x: np.ndarray, r: int) -> np.ndarray:
+    """1-D binary erosion with a window of 2 r + 1 (outside the sequence: False)."""
+    padded = np.pad(x, r, constant_values=False)
+    return np.all(np.lib.stride_tricks.sliding_window_view(padded, 2 * r + 1), axis=-1)
+
+
+def _dilate(x: np.ndarray, r: int) -> np.ndarray:
+    padded = np.pad(x, r, constant_values=False)
+    return np.any(np.lib.stride_tricks.sliding_window_view(padded, 2 * r + 1), axis=-1)
+
+
+def filter_in_hand(in_hand: Bool[ArrayLike, " T"], radius: int = 1) -> np.ndarray:
+    """The closing then opening of the module docstring (radius frames; 0: unchanged) -> (T,) bool.
+    A closing's dilation runs past the ends of the sequence, so the sequence is padded by `radius`
+    "no object" frames first (a period never grows beyond the recording). ValueError naming the
+    argument."""
+    x = as_array(in_hand, "in_hand", ndim=1, dtype=None)
+    if x.dtype != bool and not np.isin(x, (0, 1)).all():
+        raise ValueError("in_hand: expected a boolean (or 0/1) sequence")
+    r = check_int(radius, "radius", min_value=0)
+    x = x.astype(bool)
+    if r == 0:
+        return x
+    padded = np.pad(x, r, constant_values=False)
+    closed = _erode(_dilate(padded, r), r)
+    return _dilate(_erode(closed, r), r)[r:-r]
+
+
+def periods_in_hand(in_hand: Bool[ArrayLike, " T"], fps: float, radius: int = 1,
+                    min_duration_s: float = 1.0) -> Periods:
+    """Pick-up and put-down frames of a recording's per-frame "object in hand" (T,) at `fps` frames
+    per second: `filter_in_hand`, then periods shorter than `min_duration_s` removed (module
+    docstring). ValueError naming the argument (a recording shorter than `min_duration_s`:
+    `in_hand`)."""
+    rate = check_real(fps, "fps", min_value=0.0, exclusive_min=True)
+    shortest = check_real(min_duration_s, "min_duration_s", min_value=0.0)
+    x = filter_in_hand(in_hand, radius)
+    if x.size < shortest * rate:
+        raise ValueError(f"in_hand: a recording of {x.size} frames is shorter than min_duration_s = {shortest} s "
+                         f"at {rate} frames/s")
+    edges = np.diff(np.concatenate([[False], x, [False]]).astype(np.int8))
+    pickup, putdown = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    keep = (putdown - pickup) >= shortest * rate
+    marks = np.zeros(x.size + 1, np.int64)
+    np.add.at(marks, pickup[keep], 1)
+    np.add.at(marks, putdown[keep], -1)
+    return Periods(pickup[keep], putdown[keep], np.cumsum(marks)[:-1] > 0)
