@@ -46,7 +46,8 @@ Video (LEVELSET TR §3-5; LfD 2009 §III-A; T frames, R regions):
   order: background, person, skin, object; -1 on boundaries).
 * Object around the hand (`phase_segmentation`, LfD 2009 §III-B, eqs. 1-4): `gradient_phase`,
   `temporal_log_ratio` (moves with the hand), `stereo_log_ratio` (at the hand's depth) -> `LogRatio`;
-  `object_masks` (threshold, nearest large region, holes, opening: Fig. 3h-j).
+  `object_masks` (threshold, nearest large region, holes, opening: Fig. 3h-j); `segment_objects` from
+  grey stereo frames end to end -> `ObjectSegmentation`.
 * Temporal segmentation (`events`, LfD §III-D): `filter_in_hand`, `periods_in_hand` -> `Periods`
   (pick-up and put-down frames).
 
@@ -88,7 +89,8 @@ from hog_jax.tracking import INIT_RULES, TrackState, Tracks, alpha_beta_gains, t
 from hog_jax.tracks import FACE, HAND, OTHER_HAND, HandFacePositions, hand_face_positions
 from hog_jax.video import (REGIONS, StereoSegmentation, VideoModels, VideoOptions, VideoSegmentation, fit_skin,
                            fit_video_models, region_scores, segment_recording, segment_stereo)
-from hog_jax.phase_segmentation import LogRatio, gradient_phase, object_masks, stereo_log_ratio, temporal_log_ratio
+from hog_jax.phase_segmentation import (LogRatio, ObjectSegmentation, gradient_phase, object_masks, segment_objects,
+                                       stereo_log_ratio, temporal_log_ratio)
 from hog_jax.events import Periods, filter_in_hand, periods_in_hand
 from hog_jax.hog import HOGConfig, hog, hog_dim
 from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
@@ -113,6 +115,7 @@ __all__ = [
     "alpha_beta_gains", "track", "FACE", "HAND", "OTHER_HAND", "HandFacePositions", "hand_face_positions",
     "REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
     "fit_video_models", "region_scores", "segment_recording", "segment_stereo",
-    "LogRatio", "gradient_phase", "object_masks", "stereo_log_ratio", "temporal_log_ratio",
+    "LogRatio", "ObjectSegmentation", "gradient_phase", "object_masks", "segment_objects", "stereo_log_ratio",
+    "temporal_log_ratio",
     "Periods", "filter_in_hand", "periods_in_hand",
 ]

@@ -41,7 +41,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Key
 from hog_jax._checks import check_key
 from lfd_common import as_array, check_int, check_real
 
-__all__ = ["LogRatio", "gradient_phase", "object_masks", "stereo_log_ratio", "temporal_log_ratio"]
+__all__ = ["LogRatio", "ObjectSegmentation", "gradient_phase", "object_masks", "segment_objects", "stereo_log_ratio",
+           "temporal_log_ratio"]
 
 
 class LogRatio(NamedTuple):
@@ -269,3 +270,44 @@ def object_masks(temporal: LogRatio, stereo: LogRatio, hand: Bool[ArrayLike, "T 
         stacked = _stack(mask, k + 1)
         mask = _unstack(cv2.dilate(cv2.erode(stacked, kernel, iterations=k), kernel, iterations=k), mask.shape)
     return jnp.asarray(mask), jnp.asarray(mask.any(axis=(1, 2)))
+
+
+class ObjectSegmentation(NamedTuple):
+    """The object in the hand's window of each left frame: masks (T, h, w) bool, found (T,) bool
+    (frame 0, without a previous frame, is never found), and both cues (`LogRatio`, frames 1..T-1)."""
+
+    masks: Bool[Array, "T h w"]
+    found: Bool[Array, " T"]
+    temporal: LogRatio
+    stereo: LogRatio
+
+
+@partial(jax.jit, static_argnames="half")
+def _hand_windows(hand_masks, centres, half: tuple[int, int]):
+    window = jax.vmap(lambda m, c: _windows(m, c[None], half)[0])(hand_masks.astype(jnp.float32), centres)
+    return window > 0.5  # NaN outside the image: not the hand
+
+
+def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right: Float[ArrayLike, "T H W"],
+                    hand_left: Float[ArrayLike, "T 2"], hand_right: Float[ArrayLike, "T 2"],
+                    hand_masks: Bool[ArrayLike, "T H W"], half_window: tuple[int, int], sigma: float,
+                    max_offset: int, blur_sigma: float = 2.0, n_samples: int = 100, threshold: float = 0.01,
+                    min_fraction: float = 0.1, morphology: int = 2) -> ObjectSegmentation:
+    """LfD §III-B end to end for grey stereo frames (T, H, W): `gradient_phase` of both views, the
+    temporal and stereo cues around the hand (`temporal_log_ratio`, `stereo_log_ratio`: positions
+    (T, 2) (row, column) in each view), and `object_masks` without the hand's pixels (`hand_masks`
+    (T, H, W) in the left view). ValueError naming the argument."""
+    psi_l, psi_r = gradient_phase(left, blur_sigma), gradient_phase(right, blur_sigma)
+    if psi_l.ndim != 3 or psi_l.shape != psi_r.shape:
+        raise ValueError(f"right: expected (T, H, W) frames of the shape of left {psi_l.shape}, got {psi_r.shape}")
+    temporal = temporal_log_ratio(psi_l, hand_left, half_window, sigma)
+    centres_l = _check_positions(hand_left, "hand_left", psi_l.shape[0])
+    stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], centres_l[1:],
+                              _check_positions(hand_right, "hand_right", psi_l.shape[0])[1:], half_window, sigma,
+                              max_offset, n_samples)
+    hands = as_array(hand_masks, "hand_masks", shape=psi_l.shape, dtype=bool)
+    in_window = _hand_windows(jnp.asarray(hands[1:]), jnp.asarray(centres_l[1:]), _check_window(half_window))
+    masks, found = object_masks(temporal, stereo, in_window, threshold, min_fraction, morphology)
+    none = jnp.zeros((1, *masks.shape[1:]), bool)
+    return ObjectSegmentation(jnp.concatenate([none, masks]), jnp.concatenate([jnp.zeros(1, bool), found]),
+                              temporal, stereo)

@@ -7,7 +7,8 @@ import pytest
 from scipy import ndimage
 from scipy.ndimage import binary_erosion, gaussian_filter
 
-from hog_jax.phase_segmentation import LogRatio, gradient_phase, object_masks, stereo_log_ratio, temporal_log_ratio
+from hog_jax.phase_segmentation import (LogRatio, gradient_phase, object_masks, segment_objects, stereo_log_ratio,
+                                       temporal_log_ratio)
 
 H, W, T = 48, 64, 4
 HALF = (10, 11)
@@ -197,3 +198,22 @@ def test_object_masks_holes_and_nothing_found():
         object_masks(cue, LogRatio(zero.log_ratio[:1], zero.valid[:1]), np.zeros(ring.shape, bool))
     with pytest.raises(ValueError, match="hand: expected shape"):
         object_masks(cue, zero, np.zeros((2, 15, 14), bool))
+
+
+def test_segment_objects_composes_the_pieces(scene):
+    """End to end from grey frames: the composition of phase, both cues and the masks, with the hand's
+    pixels given in image coordinates; frame 0 (no previous frame) flagged not found."""
+    left, right, hand_l, hand_r, mask, psi_l, psi_r = scene
+    hands = np.zeros(left.shape, bool)
+    for t, (r, c) in enumerate(hand_l):
+        hands[t, r - 1:r + 2, c - 1:c + 2] = True
+    key = jax.random.key(3)
+    res = segment_objects(key, left, right, hand_l, hand_r, hands, HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50)
+    temporal = temporal_log_ratio(psi_l, hand_l, HALF, SIGMA)
+    stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], hand_l[1:], hand_r[1:], HALF, SIGMA, 10, 50)
+    in_window = np.zeros(np.shape(temporal.log_ratio), bool)
+    in_window[:, HALF[0] - 1:HALF[0] + 2, HALF[1] - 1:HALF[1] + 2] = True
+    want, found = object_masks(temporal, stereo, in_window)
+    np.testing.assert_array_equal(np.asarray(res.masks)[1:], np.asarray(want))
+    assert list(np.asarray(res.found)) == [False] + list(np.asarray(found))
+    assert not np.asarray(res.masks)[0].any()
