@@ -217,3 +217,17 @@ def test_segment_objects_composes_the_pieces(scene):
     np.testing.assert_array_equal(np.asarray(res.masks)[1:], np.asarray(want))
     assert list(np.asarray(res.found)) == [False] + list(np.asarray(found))
     assert not np.asarray(res.masks)[0].any()
+
+
+def test_opencv_peer_finds_the_object_on_the_same_windows(scene):
+    """The issue-19 peer (StereoSGBM + DIS flow, the same selection as ours) on the synthetic pair:
+    its mask lies on the object (the scene's object is nearer and moves with the hand)."""
+    from experiments.bench.object_peer import peer_object_masks
+
+    left, right, hand_l, hand_r, mask, _, _ = scene
+    u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
+    hands = np.zeros(left.shape, bool)
+    masks, found = peer_object_masks(u8(left), u8(right), hand_l, hand_r, hands, HALF, num_disparities=16)
+    truth = _window_mask(mask, hand_l)
+    assert not found[0] and found[1:].all()
+    assert (masks & truth).sum() > 0.8 * masks.sum() and (masks & truth)[1:].sum() > 0.3 * truth[1:].sum()
