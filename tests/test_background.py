@@ -179,7 +179,7 @@ def test_threads_do_not_change_the_result(events):
     striped = run_background(frames[8:], masks[8:], initial_state=first, threads=5)
     for got, want in zip(jax.tree.leaves(striped), jax.tree.leaves(whole)):
         np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
-    videos = np.stack([frames, 255 - frames, frames[:, ::-1]])
+    videos = np.stack([frames, 255 - frames])
     one = run_background_batch(videos, threads=1)
     for got, want in zip(jax.tree.leaves(run_background_batch(videos, threads=2)), jax.tree.leaves(one)):
         np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
