@@ -15,13 +15,14 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
   (TR §3.6's per-model threshold: a skin density at least that of `skin_match_quantile` of the skin
   model's own draws) teach neither model: skin is a region of its own, and a person model that had
   learnt this person's face and arms would outscore the generic skin model on them;
-* background, where the previous frame left the pixel to the background (not `claimed`, below): the
-  equal mixture of the background GMM and the pixel's own Stauffer–Grimson mixture before this
-  frame's update (eq. 9, `background.log_density`). A pixel that still matches its own model stays
-  background however far the drifting light has moved its colour from what the GMM learnt at the
-  start: on a validation recording a table the colour of the person's clothing otherwise turned
-  "person" for good. Where another region claimed the pixel, the GMM alone: the pixel's own model
-  may have learnt a person who sat still during the training phase;
+* background: the equal mixture of the background GMM and the pixel's own Stauffer–Grimson mixture
+  before this frame's update (eq. 9, `background.log_density`). A pixel that still matches its own
+  model stays background however far the drifting light has moved its colour from what the GMM
+  learnt at the start: on a validation recording a table the colour of the person's clothing
+  otherwise turned "person" for good. The own model counts also where another region claimed the
+  pixel: scored by the GMM alone there, a grey wall patch the arm had swept past and a white pitcher
+  stayed "person" on grey-clothed validation persons (person IoU 0.687 against 0.663, mean of six
+  validation clips);
 * background also loses `motion_penalty` nats where the background model sees motion: a moving
   pixel is not background whatever its colour (the objects stood on the table while the background
   was learnt, so their colours are in the background GMM);
@@ -250,9 +251,8 @@ def _segment_one(structure: LevelSetStructure, frames, densities, start: int, ma
         t, x, dens = inp
         x = x.astype(jnp.float32)
         held = claimed & _person_coloured(dens).reshape(-1)
-        gmm = dens[0].reshape(-1)
-        mixture = jnp.logaddexp(gmm, bgk.log_density_pixels_last(*state, x)) - jnp.log(2.0)  # before the update
-        background = jnp.where(claimed, gmm, mixture)
+        own = bgk.log_density_pixels_last(*state, x)  # before this frame's update
+        background = jnp.logaddexp(dens[0].reshape(-1), own) - jnp.log(2.0)
         *state, fg = bgk.step_pixels_last(*state, x, ~held, bo)
         fg = fg.reshape(H, W)
         dens = dens.at[0].set(background.reshape(H, W))
