@@ -48,7 +48,7 @@ Video (LEVELSET TR §3-5; LfD 2009 §III-A; T frames, R regions):
   `temporal_log_ratio` (moves with the hand), `stereo_log_ratio` (at the hand's depth) -> `LogRatio`;
   `object_masks` (threshold, nearest large region, holes, opening: Fig. 3h-j); `segment_objects` from
   grey stereo frames end to end -> `ObjectSegmentation`.
-* Temporal segmentation (`events`, LfD §III-D): `filter_in_hand`, `periods_in_hand` -> `Periods`
+* Temporal segmentation (`events`, LfD §III-D): `filter_in_hand`, `hold_undecided`, `periods_in_hand` -> `Periods`
   (pick-up and put-down frames).
 
 Example::
@@ -91,7 +91,7 @@ from hog_jax.video import (REGIONS, StereoSegmentation, VideoModels, VideoOption
                            fit_video_models, region_scores, segment_recording, segment_stereo)
 from hog_jax.phase_segmentation import (LogRatio, ObjectSegmentation, gradient_phase, object_masks, segment_objects,
                                        stereo_log_ratio, temporal_log_ratio)
-from hog_jax.events import Periods, filter_in_hand, periods_in_hand
+from hog_jax.events import Periods, filter_in_hand, hold_undecided, periods_in_hand
 from hog_jax.hog import HOGConfig, hog, hog_dim
 from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
                          quat_to_euler, vote)
@@ -117,5 +117,5 @@ __all__ = [
     "fit_video_models", "region_scores", "segment_recording", "segment_stereo",
     "LogRatio", "ObjectSegmentation", "gradient_phase", "object_masks", "segment_objects", "stereo_log_ratio",
     "temporal_log_ratio",
-    "Periods", "filter_in_hand", "periods_in_hand",
+    "Periods", "filter_in_hand", "hold_undecided", "periods_in_hand",
 ]

@@ -22,7 +22,7 @@ from jaxtyping import ArrayLike, Bool
 
 from lfd_common import as_array, check_int, check_real
 
-__all__ = ["Periods", "filter_in_hand", "periods_in_hand"]
+__all__ = ["Periods", "filter_in_hand", "hold_undecided", "periods_in_hand"]
 
 
 class Periods(NamedTuple):
@@ -62,15 +62,26 @@ def filter_in_hand(in_hand: Bool[ArrayLike, " T"], radius: int = 1) -> np.ndarra
     return _dilate(_erode(closed, r), r)[r:-r]
 
 
+def hold_undecided(in_hand: Bool[ArrayLike, " T"], decided: Bool[ArrayLike, " T"]) -> np.ndarray:
+    """(T,) bool: `in_hand` where `decided`, elsewhere the value of the last decided frame (False
+    before the first). Where the hand has not moved, eq. 1 of LfD §III-B equals the static
+    background's likelihood (r_m = 1) and a frame's mask says nothing about the object
+    (`phase_segmentation.ObjectSegmentation.hand_moved`). ValueError naming the argument."""
+    x = as_array(in_hand, "in_hand", ndim=1, dtype=bool)
+    d = as_array(decided, "decided", shape=x.shape, dtype=bool)
+    last = np.maximum.accumulate(np.where(d, np.arange(x.size), -1))
+    return np.where(last >= 0, x[np.maximum(last, 0)], False)
+
+
 def periods_in_hand(in_hand: Bool[ArrayLike, " T"], fps: float, radius: int = 1,
-                    min_duration_s: float = 1.0) -> Periods:
+                    min_duration_s: float = 1.0, decided: Bool[ArrayLike, " T"] | None = None) -> Periods:
     """Pick-up and put-down frames of a recording's per-frame "object in hand" (T,) at `fps` frames
-    per second: `filter_in_hand`, then periods shorter than `min_duration_s` removed (module
-    docstring). ValueError naming the argument (a recording shorter than `min_duration_s`:
-    `in_hand`)."""
+    per second: `hold_undecided` where `decided` (T,) is given, `filter_in_hand`, then periods
+    shorter than `min_duration_s` removed (module docstring). ValueError naming the argument (a
+    recording shorter than `min_duration_s`: `in_hand`)."""
     rate = check_real(fps, "fps", min_value=0.0, exclusive_min=True)
     shortest = check_real(min_duration_s, "min_duration_s", min_value=0.0)
-    x = filter_in_hand(in_hand, radius)
+    x = filter_in_hand(in_hand if decided is None else hold_undecided(in_hand, decided), radius)
     if x.size < shortest * rate:
         raise ValueError(f"in_hand: a recording of {x.size} frames is shorter than min_duration_s = {shortest} s "
                          f"at {rate} frames/s")

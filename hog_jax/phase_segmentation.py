@@ -274,10 +274,15 @@ def object_masks(temporal: LogRatio, stereo: LogRatio, hand: Bool[ArrayLike, "T 
 
 class ObjectSegmentation(NamedTuple):
     """The object in the hand's window of each left frame: masks (T, h, w) bool, found (T,) bool
-    (frame 0, without a previous frame, is never found), and both cues (`LogRatio`, frames 1..T-1)."""
+    (frame 0, without a previous frame, is never found), hand_moved (T,) bool: the rounded left hand
+    position moved at least `min_hand_motion` px (max norm) since the previous frame (False at
+    frame 0); where it did not, eq. 1 equals the static background (r_m = 1) and `found` rests on
+    the stereo cue alone, which also passes the table and body at the hand's depth
+    (`events.hold_undecided`); and both cues (`LogRatio`, frames 1..T-1)."""
 
     masks: Bool[Array, "T h w"]
     found: Bool[Array, " T"]
+    hand_moved: Bool[Array, " T"]
     temporal: LogRatio
     stereo: LogRatio
 
@@ -292,11 +297,12 @@ def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right:
                     hand_left: Float[ArrayLike, "T 2"], hand_right: Float[ArrayLike, "T 2"],
                     hand_masks: Bool[ArrayLike, "T H W"], half_window: tuple[int, int], sigma: float,
                     max_offset: int, blur_sigma: float = 2.0, n_samples: int = 100, threshold: float = 0.01,
-                    min_fraction: float = 0.1, morphology: int = 2) -> ObjectSegmentation:
+                    min_fraction: float = 0.1, morphology: int = 2, min_hand_motion: float = 2.0) -> ObjectSegmentation:
     """LfD §III-B end to end for grey stereo frames (T, H, W): `gradient_phase` of both views, the
     temporal and stereo cues around the hand (`temporal_log_ratio`, `stereo_log_ratio`: positions
     (T, 2) (row, column) in each view), and `object_masks` without the hand's pixels (`hand_masks`
-    (T, H, W) in the left view). ValueError naming the argument."""
+    (T, H, W) in the left view); `hand_moved` with `min_hand_motion` px (2: chosen on validation
+    recordings, README). ValueError naming the argument."""
     psi_l, psi_r = gradient_phase(left, blur_sigma), gradient_phase(right, blur_sigma)
     if psi_l.ndim != 3 or psi_l.shape != psi_r.shape:
         raise ValueError(f"right: expected (T, H, W) frames of the shape of left {psi_l.shape}, got {psi_r.shape}")
@@ -309,5 +315,7 @@ def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right:
     in_window = _hand_windows(jnp.asarray(hands[1:]), jnp.asarray(centres_l[1:]), _check_window(half_window))
     masks, found = object_masks(temporal, stereo, in_window, threshold, min_fraction, morphology)
     none = jnp.zeros((1, *masks.shape[1:]), bool)
+    step = np.abs(np.diff(centres_l, axis=0)).max(axis=1)
+    moved = np.concatenate([[False], step >= check_real(min_hand_motion, "min_hand_motion", min_value=0.0)])
     return ObjectSegmentation(jnp.concatenate([none, masks]), jnp.concatenate([jnp.zeros(1, bool), found]),
-                              temporal, stereo)
+                              jnp.asarray(moved), temporal, stereo)

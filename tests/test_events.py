@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hog_jax.events import filter_in_hand, periods_in_hand
+from hog_jax.events import filter_in_hand, hold_undecided, periods_in_hand
 
 
 def _runs(*pairs):
@@ -25,6 +25,26 @@ def test_known_events_survive_dropouts_and_spikes():
 def test_a_period_cut_by_the_end_of_the_recording_ends_there():
     res = periods_in_hand(_runs((0, 5), (1, 30)), fps=25.0)
     assert list(res.pickup) == [5] and list(res.putdown) == [35]
+
+
+def test_undecided_frames_keep_the_last_decision():
+    """A still hand (undecided frames) inside an action keeps it in hand, and one before the first
+    decision is "no object"; spurious detections while the hand is still are ignored."""
+    found = _runs((1, 3), (0, 10), (1, 30), (0, 5), (1, 15), (0, 12))
+    decided = _runs((0, 3), (1, 12), (0, 6), (1, 20), (0, 10), (1, 24))
+    res = periods_in_hand(found, fps=25.0, decided=decided)
+    assert list(res.pickup) == [13] and list(res.putdown) == [63]
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.booleans(), st.booleans()), min_size=1, max_size=40))
+def test_hold_undecided_equals_a_loop(pairs):
+    found, decided = np.array(pairs).T
+    want, last = [], False
+    for f, d in zip(found, decided):
+        last = f if d else last
+        want.append(last)
+    np.testing.assert_array_equal(hold_undecided(found, decided), np.array(want, bool))
 
 
 def _brute_close_open(x, r):

@@ -217,6 +217,11 @@ def test_segment_objects_composes_the_pieces(scene):
     np.testing.assert_array_equal(np.asarray(res.masks)[1:], np.asarray(want))
     assert list(np.asarray(res.found)) == [False] + list(np.asarray(found))
     assert not np.asarray(res.masks)[0].any()
+    assert list(np.asarray(res.hand_moved)) == [False] + [True] * (len(left) - 1)  # the hand moves 2 px a frame
+    still = segment_objects(key, left, right, hand_l, hand_r, hands, HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50,
+                            min_hand_motion=2.5)
+    assert not np.asarray(still.hand_moved).any()
+    np.testing.assert_array_equal(np.asarray(still.masks), np.asarray(res.masks))
 
 
 def test_opencv_peer_finds_the_object_on_the_same_windows(scene):
