@@ -303,6 +303,7 @@ def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right:
     (T, 2) (row, column) in each view), and `object_masks` without the hand's pixels (`hand_masks`
     (T, H, W) in the left view); `hand_moved` with `min_hand_motion` px (2: chosen on validation
     recordings, README). ValueError naming the argument."""
+    min_motion = check_real(min_hand_motion, "min_hand_motion", min_value=0.0)
     psi_l, psi_r = gradient_phase(left, blur_sigma), gradient_phase(right, blur_sigma)
     if psi_l.ndim != 3 or psi_l.shape != psi_r.shape:
         raise ValueError(f"right: expected (T, H, W) frames of the shape of left {psi_l.shape}, got {psi_r.shape}")
@@ -315,7 +316,6 @@ def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right:
     in_window = _hand_windows(jnp.asarray(hands[1:]), jnp.asarray(centres_l[1:]), _check_window(half_window))
     masks, found = object_masks(temporal, stereo, in_window, threshold, min_fraction, morphology)
     none = jnp.zeros((1, *masks.shape[1:]), bool)
-    step = np.abs(np.diff(centres_l, axis=0)).max(axis=1)
-    moved = np.concatenate([[False], step >= check_real(min_hand_motion, "min_hand_motion", min_value=0.0)])
+    moved = np.concatenate([[False], np.abs(np.diff(centres_l, axis=0)).max(axis=1) >= min_motion])
     return ObjectSegmentation(jnp.concatenate([none, masks]), jnp.concatenate([jnp.zeros(1, bool), found]),
                               jnp.asarray(moved), temporal, stereo)
