@@ -42,7 +42,8 @@ near the clothing's with the light stopped adapting and turned "person"; held by
 table the colour of the clothing, once the person's level set had spread onto it beside the arm,
 was never learnt again, moved against its stale model and stayed "person" to the end (the label
 feeds the hold, the hold the motion, the motion the label). A pixel the person has just left is
-learnt at once (its colour is the background's again).
+learnt at once (its colour is the background's again). A held pixel's model is not frozen against
+the light: it follows the mean change of the pixels learnt in the same frame (`follow_light`).
 """
 from __future__ import annotations
 
@@ -67,7 +68,7 @@ from hog_jax.tracks import HandFacePositions, hand_face_positions
 from lfd_common import as_array, check_int, check_real
 
 __all__ = ["REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
-           "fit_video_models", "region_scores", "segment_recording", "segment_stereo"]
+           "fit_video_models", "follow_light", "region_scores", "segment_recording", "segment_stereo"]
 
 REGIONS = ("background", "person", "skin", "object")
 BACKGROUND, PERSON, SKIN, OBJECT = range(4)
@@ -87,14 +88,16 @@ class VideoModels(NamedTuple):
 
 class VideoOptions(NamedTuple):
     """motion_penalty (nats, >= 0) and object_margin (nats) of the region scores (module docstring);
-    the background model's and the level sets' options; person_frames: how many frames before
-    `start` teach the person and background GMMs; skin_match_quantile in (0, 1): the skin model's
+    follow_light: the held pixels' background models follow the frame's mean change of the learnt
+    ones (`follow_light`); the background model's and the level sets' options; person_frames: how
+    many frames before `start` teach the person and background GMMs; skin_match_quantile in (0, 1): the skin model's
     match threshold (module docstring). The level sets re-seed a region where its score
     beats every other by 3 nats (`LevelSetOptions.reseed_margin`): a hand hidden in one frame comes
     back in the next."""
 
     motion_penalty: float = 4.0
     object_margin: float = 0.0
+    follow_light: bool = True
     person_frames: int = 10
     skin_match_quantile: float = 0.1
     background: BackgroundOptions = BackgroundOptions()
@@ -206,6 +209,30 @@ def _checked_margins(options: VideoOptions):
     return jnp.float32(penalty), jnp.float32(margin)
 
 
+def _checked_follow(options: VideoOptions):
+    if not isinstance(options.follow_light, (bool, np.bool_)):
+        raise ValueError(f"follow_light: expected a bool, got {options.follow_light!r}")
+    return jnp.bool_(options.follow_light)
+
+
+def follow_light(mu_before: Float[Array, "K C N"], mu_after: Float[Array, "K C N"], x: Float[Array, "C N"],
+                 followed: Bool[Array, "N"], held: Bool[Array, "N"]) -> Float[Array, "K C N"]:
+    """The means after this frame's update with the held pixels' components scaled by 1 + s_c, s_c
+    (per channel) the relative change of the `followed` pixels' means this frame:
+    sum_n sum_k (mu_after - mu_before)[k, c, n] / sum_n x[c, n] over the followed pixels (learnt and
+    matched, so one component moved, by rho (X - mu)). The TR's hold (§3.5) freezes a pixel's model
+    while the person covers it; the scene's light keeps changing, and a held wall pixel whose light
+    had drifted beyond the 2.5 sigma match when the arm left it stayed foreground, and then
+    "person", for good (issue 18's paper run, test person 2). The light of the demonstration scene
+    is one scale on every lamp, a global gain; a real camera's exposure and daylight change the same
+    way to first order. s = 0 where nothing was followed."""
+    w = followed.astype(mu_after.dtype)
+    moved = jnp.sum(jnp.sum(mu_after - mu_before, axis=0) * w, axis=-1)  # (C,)
+    level = jnp.sum(x * w, axis=-1)
+    s = jnp.where(level > 0, moved / jnp.where(level > 0, level, 1.0), 0.0)
+    return jnp.where(held, mu_after * (1.0 + s[None, :, None]), mu_after)
+
+
 def region_scores(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], foreground: Bool[ArrayLike, "*T H W"],
                   options: VideoOptions = VideoOptions()) -> Float[Array, "*T 4 H W"]:
     """e_i(x) of the four regions (module docstring) for frames (.., T, H, W, 3) in [0, 255] and the
@@ -228,7 +255,7 @@ def _person_coloured(densities):
     return jnp.max(densities[..., 1:, :, :], axis=-3) > densities[..., 0, :, :]
 
 
-def _segment_one(structure: LevelSetStructure, frames, densities, start: int, margins, bo, lo):
+def _segment_one(structure: LevelSetStructure, frames, densities, start: int, margins, follow, bo, lo):
     """One video: frames (T, H, W, 3), densities (T, 3, H, W) -> labels (T, H, W) int8, foreground
     (T, H, W), fine-scale iterations (T,), converged (T,). Before `start` the background model does
     not learn what moved in the previous frame; from `start` on each frame is classified, learnt
@@ -238,10 +265,14 @@ def _segment_one(structure: LevelSetStructure, frames, densities, start: int, ma
     xs = jnp.moveaxis(frames.reshape(T, H * W, C), 2, 1)  # (T, C, N), the background kernel's layout
     state = bgk.pixels_last(bgk.init_state(frames[0], BackgroundStructure().n_components, bo))
 
+    def learn(state, x, held):
+        w, mu, var, fg = bgk.step_pixels_last(*state, x, ~held, bo)
+        return (w, jnp.where(follow, follow_light(state[1], mu, x, ~held & ~fg, held), mu), var), fg
+
     def training(carry, x):  # no labels yet: what moved in the previous frame is held (TR §3.5)
         state, moved = carry
-        *state, fg = bgk.step_pixels_last(*state, x.astype(jnp.float32), ~moved, bo)
-        return (tuple(state), fg), fg
+        state, fg = learn(state, x.astype(jnp.float32), moved)
+        return (state, fg), fg
 
     (state, _), fg_before = jax.lax.scan(training, (state, jnp.zeros(H * W, bool)), xs[:start])
 
@@ -252,12 +283,12 @@ def _segment_one(structure: LevelSetStructure, frames, densities, start: int, ma
         held = claimed & _person_coloured(dens).reshape(-1)
         own = bgk.log_density_pixels_last(*state, x)  # before this frame's update
         background = jnp.logaddexp(dens[0].reshape(-1), own) - jnp.log(2.0)
-        *state, fg = bgk.step_pixels_last(*state, x, ~held, bo)
+        state, fg = learn(state, x, held)
         fg = fg.reshape(H, W)
         dens = dens.at[0].set(background.reshape(H, W))
         res = levelset.segment_frame(structure, levelset.FIXED, _scores(dens, fg, *margins), phi, t == 0, lo)
-        return (tuple(state), res.phi, res.labels.reshape(-1) != BACKGROUND), (res.labels, fg, res.iterations,
-                                                                               res.converged)
+        claimed = res.labels.reshape(-1) != BACKGROUND
+        return (state, res.phi, claimed), (res.labels, fg, res.iterations, res.converged)
 
     phi0 = jnp.zeros((len(REGIONS), H, W), jnp.float32)
     # before the first segmented frame no labels exist: what moved or has the person's colour counts as claimed
@@ -271,10 +302,10 @@ def _segment_one(structure: LevelSetStructure, frames, densities, start: int, ma
 
 
 @partial(jax.jit, static_argnames=("structure", "start"))
-def _segment_jit(structure: LevelSetStructure, models: VideoModels, frames, start: int, margins, bo, lo):
+def _segment_jit(structure: LevelSetStructure, models: VideoModels, frames, start: int, margins, follow, bo, lo):
     """frames (B, T, H, W, 3) -> `_segment_one`'s outputs with a leading B (vmapped where B > 1)."""
     densities = _colour_log_densities(models, frames)
-    one = partial(_segment_one, structure, start=start, margins=margins, bo=bo, lo=lo)
+    one = partial(_segment_one, structure, start=start, margins=margins, follow=follow, bo=bo, lo=lo)
     if frames.shape[0] == 1:  # no batched while loops (as levelset's kernel)
         return jax.tree.map(lambda a: a[None], one(frames[0], densities[0]))
     return jax.vmap(one)(frames, densities)
@@ -295,7 +326,8 @@ def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], 
     shape = tuple(arr.shape[-3:-1])
     structure = LevelSetStructure(len(REGIONS), shape, _coarse(shape))
     x = jnp.asarray(arr if batched else arr[None])
-    out = _segment_jit(structure, models, x, start, margins, check_background_options(options.background),
+    out = _segment_jit(structure, models, x, start, margins, _checked_follow(options),
+                       check_background_options(options.background),
                        levelset.check_options(options.levelset))
     seg = VideoSegmentation(*out)
     return seg if batched else jax.tree.map(lambda a: a[0], seg)

@@ -5,10 +5,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 import hog_jax
 from hog_jax.segment import gmm_log_prob
-from hog_jax.video import BACKGROUND, OBJECT, PERSON, SKIN
+from hog_jax.video import BACKGROUND, OBJECT, PERSON, SKIN, follow_light
 
 H, W, T, START = 24, 32, 16, 10
 SKIN_RGB, PERSON_RGB = np.array([200.0, 140.0, 110.0]), np.array([40.0, 60.0, 170.0])
@@ -64,10 +65,11 @@ def test_background_is_not_learnt_where_the_previous_frame_is_not_background(fit
     """TR §3.5's no-update mask: before START what moved in the previous frame; from START the previous
     frame's regions other than the background (for the first segmented frame: the training phase's
     motion or the person's colours), where the frame's colour is the person's or the skin's. The same
-    background model run alone with that mask gives the same foreground."""
+    background model run alone with that mask gives the same foreground (held models frozen, as the
+    TR: `follow_light` off)."""
     _, _, models, _ = fitted
     frames, _ = _scene(leaves=True)  # the same frames before START, so the same colour models
-    options = hog_jax.VideoOptions(person_frames=4)
+    options = hog_jax.VideoOptions(person_frames=4, follow_light=False)
     seg = hog_jax.segment_recording(models, frames, START, options)
     labels, fg = np.asarray(seg.labels), np.asarray(seg.foreground)
     unit = jnp.asarray(frames, jnp.float32) / 255.0
@@ -81,6 +83,61 @@ def test_background_is_not_learnt_where_the_previous_frame_is_not_background(fit
     assert held[START + 1:].any() and (claimed & ~held)[START + 1:].any()
     _, alone = hog_jax.run_background(frames, held, options=options.background)
     np.testing.assert_array_equal(np.asarray(alone), fg)
+
+
+def _follow_light_float64(mu_before, mu_after, x, followed, held):
+    moved = (mu_after - mu_before).sum(0)[:, followed].sum(-1)
+    level = x[:, followed].sum(-1)
+    s = np.divide(moved, level, out=np.zeros_like(moved), where=level > 0)
+    return np.where(held, mu_after * (1.0 + s[None, :, None]), mu_after)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(-0.05, 0.05))
+def test_follow_light_scales_held_models_by_the_learnt_pixels_change(seed, gain):
+    """Against float64 NumPy; and where every followed pixel's mean moved by gain * X, the held
+    pixels' means are scaled by 1 + gain and the others are untouched."""
+    rng = np.random.default_rng(seed)
+    K, C, N = 3, 3, 40
+    before = rng.uniform(20, 230, (K, C, N))
+    x = rng.uniform(20, 230, (C, N))
+    followed, held = rng.random(N) < 0.5, rng.random(N) < 0.3
+    held &= ~followed
+    after = before + rng.normal(0, 2, before.shape) * followed
+    ours = follow_light(*(jnp.asarray(a, jnp.float32) for a in (before, after, x)), jnp.asarray(followed),
+                        jnp.asarray(held))
+    np.testing.assert_allclose(ours, _follow_light_float64(before, after, x, followed, held), rtol=1e-4, atol=1e-3)
+    uniform = before.copy()
+    uniform[0] += gain * x * followed  # one component per pixel moves, as a learnt, matched pixel's does
+    ours = np.asarray(follow_light(*(jnp.asarray(a, jnp.float32) for a in (before, uniform, x)),
+                                   jnp.asarray(followed), jnp.asarray(held)))
+    np.testing.assert_allclose(ours[..., held], before[..., held] * (1 + gain), rtol=1e-4)
+    np.testing.assert_array_equal(ours[..., ~held], uniform[..., ~held].astype(np.float32))
+    nothing = follow_light(*(jnp.asarray(a, jnp.float32) for a in (before, after, x)), jnp.zeros(N, bool),
+                           jnp.asarray(held))
+    np.testing.assert_allclose(nothing, after.astype(np.float32))
+
+
+def test_held_pixels_follow_the_light(fitted):
+    """A scene whose light dims by 0.5 % a frame; a 'person' block stands still over part of it for 24
+    frames, then leaves. With `follow_light` the pixels it leaves match their models at once; frozen
+    (the TR's hold alone) the light has moved beyond their 2.5 sigma match and they are foreground."""
+    _, _, models, _ = fitted
+    rng = np.random.default_rng(3)
+    base = np.where((np.add.outer(np.arange(H) // 4, np.arange(W) // 4) % 2)[..., None] == 1, 200.0, 140.0)
+    n, leave = 44, START + 24
+    frames = np.repeat(np.broadcast_to(base, (H, W, 3))[None], n, axis=0) * (1 - 0.005 * np.arange(n))[:, None, None, None]
+    frames[START:leave, 4:22, 12:24] = PERSON_RGB
+    frames = np.clip(frames + rng.normal(0, 2, frames.shape), 0, 255).astype(np.uint8)
+    background = hog_jax.BackgroundOptions(alpha=0.2)
+    left = {}
+    for follow in (True, False):
+        seg = hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(follow_light=follow,
+                                                                                    background=background))
+        left[follow] = np.asarray(seg.foreground)[leave, 4:22, 12:24].mean()
+        still = np.asarray(seg.foreground)[leave, :, :10].mean()  # never covered: learnt all along
+        assert still < 0.05, (follow, still)
+    assert left[True] < 0.05 and left[False] > 0.9, left
 
 
 def test_region_scores_and_bad_input(fitted):
@@ -99,6 +156,8 @@ def test_region_scores_and_bad_input(fitted):
         hog_jax.segment_recording(models, np.full_like(frames, np.nan, dtype=float), START)
     with pytest.raises(ValueError, match="start"):
         hog_jax.segment_recording(models, frames, T)
+    with pytest.raises(ValueError, match="follow_light"):
+        hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(follow_light=1))
     with pytest.raises(ValueError, match="foreground"):
         hog_jax.region_scores(models, frames, fg[:-1])
     with pytest.raises(ValueError, match="right"):
