@@ -57,12 +57,14 @@ def selected_clips(settings: video.VideoSettings, where):
             yield p, c, r, video.render_recording(settings, script, progress=progress)
 
 
-def skin_stage(cfg: Config, settings: video.VideoSettings):
+def skin_stage(cfg: Config, settings: video.VideoSettings, persons=None):
     """(a)'s chroma skin model (`hog_jax.fit_skin_model`) and (b)'s RGB skin GMM (`fit_skin`) from the
-    hand and face pixels of the first `n_skin_persons` persons' clips (left views, subsampled)."""
+    hand and face pixels of the clips of `persons` (default: the first `cfg.n_skin_persons`; left
+    views, subsampled)."""
+    persons = range(cfg.n_skin_persons) if persons is None else persons
     skin, other = [], []
     rng = np.random.default_rng(cfg.seed)
-    for _, _, _, rec in selected_clips(settings, lambda p, c, r: p < cfg.n_skin_persons):
+    for _, _, _, rec in selected_clips(settings, lambda p, c, r: p in persons):
         lab = rec.left_labels[::3]
         is_skin = (lab == 2) | (lab == 3)
         skin.append(rec.left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])

@@ -25,7 +25,7 @@ time), `scripts(settings)` long recordings of `script_oacs` OACs (the `UNSEEN` c
 them), `script_pointing` pointings and `script_reaching` reachings. Deterministic from the seeds;
 each recording cached (np.savez_compressed) under `lfd_common.cache_dir("video")` keyed by every
 setting, its script and the generator's source. `PRESETS` "quick" (2 persons x 3 x 1 at 160 x 120,
-10 fps) and "paper". Pictures: `contact_sheet`, `overlay`, `write_video`;
+10 fps) and "paper". Pictures: `contact_sheet`, `overlay`, `write_video`, `grey`;
 `python -m experiments.data.video --preset quick --out DIR` renders one long recording and writes both.
 """
 from experiments.data.video.settings import (ACTIONS, LABELS, OBJECTS, PRESETS, PRIMITIVES, TRACKED, UNSEEN,
@@ -34,9 +34,9 @@ from experiments.data.video.settings import (ACTIONS, LABELS, OBJECTS, PRESETS, 
 from experiments.data.video.people import actor, persons
 from experiments.data.video.render import (clip_scripts, clips, ellipses, iter_clips, long_scripts,
                                            render_recording, scripts)
-from experiments.data.video.outputs import LABEL_COLOURS, contact_sheet, overlay, write_video
+from experiments.data.video.outputs import LABEL_COLOURS, contact_sheet, grey, overlay, write_video
 
 __all__ = ["ACTIONS", "LABELS", "LABEL_COLOURS", "OBJECTS", "PRESETS", "PRIMITIVES", "Primitive", "Recording",
            "Script", "TRACKED", "UNSEEN", "VideoSet", "VideoSettings", "actor", "check_script", "clip_scripts",
-           "clips", "contact_sheet", "ellipses", "iter_clips", "long_scripts", "overlay", "persons", "preset",
+           "clips", "contact_sheet", "ellipses", "grey", "iter_clips", "long_scripts", "overlay", "persons", "preset",
            "render_recording", "scripts", "write_video"]

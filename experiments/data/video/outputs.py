@@ -13,6 +13,15 @@ LABEL_COLOURS = np.array([[0, 0, 0], [255, 140, 0], [230, 25, 40], [255, 225, 25
                           [220, 40, 220]], np.uint8)
 
 
+_LUMA = np.array([0.299, 0.587, 0.114], np.float32)  # ITU-R BT.601, as cv2.COLOR_RGB2GRAY
+
+
+def grey(frames) -> np.ndarray:
+    """(T, H, W, 3) uint8 RGB -> (T, H, W) uint8 grey (OpenCV's weights, rounded)."""
+    arr = _frames(frames, "frames")
+    return np.clip(np.rint(arr.astype(np.float32) @ _LUMA), 0, 255).astype(np.uint8)
+
+
 def _frames(frames, name: str) -> np.ndarray:
     arr = np.asarray(frames)
     if arr.ndim != 4 or arr.shape[-1] != 3 or arr.dtype != np.uint8 or arr.shape[0] == 0:

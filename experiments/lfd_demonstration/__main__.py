@@ -1,0 +1,3 @@
+from experiments.lfd_demonstration.stages import main
+
+main()

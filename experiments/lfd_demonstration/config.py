@@ -1,0 +1,60 @@
+"""Config and presets of the learning-from-demonstration study (issue 19)."""
+from __future__ import annotations
+
+import dataclasses
+
+from experiments.data import video
+from lfd_common import check_int, check_real
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """The long unsegmented recordings through the video front end (issue 18), the object in the hand
+    from phase differences (LfD 2009 §III-B) beside an OpenCV peer, and pick-up / put-down events
+    (§III-D, Fig. 8). Settings at 320 x 240 scale with the image width."""
+
+    seed: int = 0
+    video_preset: str = "paper"        # experiments.data.video preset of the recordings
+    n_scripts: int = 4                 # long recordings (script i by person i); 0: the video preset's
+    script_oacs: int = 0               # OACs per recording (at least the 2 unseen ones); 0: the video preset's
+    n_skin_persons: int = 2            # the last persons' clips train the skin models (no script is theirs)
+    pad_frames: int = 50               # recordings are padded to a multiple of this (one compilation per length)
+    half_window: int = 20              # the hand's window, (2 h + 1)^2 pixels at 320 x 240 (LfD §III-B, assumption 1)
+    blur_sigma: float = 2.0            # Gaussian blur before the phase, px at 320 x 240
+    threshold: float = 0.01            # log r_m r_s > threshold (the paper's exp(0.01))
+    n_samples: int = 100               # eq. 4's N random disparities
+    min_hand_motion: float = 2.0       # px at 320 x 240: a frame decides only where the hand moved (README)
+    filter_radius: int = 1             # the closing and opening over time (frames at 25 fps)
+    min_duration_s: float = 1.0        # shorter "object in hand" periods are removed (LfD §III-D)
+    event_tolerance_s: float = 2.0     # a found period matches a true one it overlaps; errors beyond this are flagged
+
+    def __post_init__(self):
+        if self.video_preset not in video.PRESETS:
+            raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
+        for name, low in (("n_scripts", 0), ("script_oacs", 0), ("n_skin_persons", 1), ("pad_frames", 1),
+                          ("half_window", 2), ("n_samples", 1), ("filter_radius", 0)):
+            check_int(getattr(self, name), name, min_value=low)
+        for name in ("blur_sigma", "min_duration_s", "event_tolerance_s"):
+            check_real(getattr(self, name), name, min_value=0.0, exclusive_min=True)
+        check_real(self.threshold, "threshold")
+        check_real(self.min_hand_motion, "min_hand_motion", min_value=0.0)
+
+    def video_settings(self) -> video.VideoSettings:
+        overrides = {k: getattr(self, k) for k in ("n_scripts", "script_oacs") if getattr(self, k)}
+        settings = video.preset(self.video_preset, seed=self.seed, **overrides)
+        if settings.n_scripts < 1:
+            raise ValueError(f"n_scripts: the video preset {self.video_preset!r} has no long recording")
+        if settings.n_scripts + self.n_skin_persons > settings.n_persons:
+            raise ValueError(f"n_skin_persons: {self.n_skin_persons} skin persons and {settings.n_scripts} scripts "
+                             f"need more than the preset's {settings.n_persons} persons")
+        return settings
+
+    def scale(self, settings: video.VideoSettings) -> float:
+        """Image width over 320: lengths in pixels are given at 320 x 240."""
+        return settings.width / 320.0
+
+
+PRESETS = {
+    "quick": {"video_preset": "quick", "n_scripts": 0, "n_skin_persons": 1, "pad_frames": 25},
+    "paper": {},
+}

@@ -1,0 +1,71 @@
+"""Per-recording evaluation of the object in the hand and of the pick-up / put-down events against
+MuJoCo's ground truth (issue 19): object-mask IoU in the hand's window, and found periods matched to
+the true ones.
+
+Ground truth: label >= 4 is the held object, from its pick-up frame to its put-down frame (the last
+frame it is held, `Recording.putdown_frames`); a found period's put-down is the first frame after it
+(`hog_jax.events.Periods`), so the true one is compared as putdown + 1.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+GT_OBJECT = 4
+
+
+class EventMatch(NamedTuple):
+    """Errors in frames (found - true) of the matched periods' pick-ups and put-downs, (M,) each, the
+    number of true periods no found period matched (missed) and of found periods that matched no
+    true one (spurious)."""
+
+    pickup_error: np.ndarray
+    putdown_error: np.ndarray
+    missed: int
+    spurious: int
+
+
+def truth_windows(labels: np.ndarray, centres: np.ndarray, half: tuple[int, int]) -> np.ndarray:
+    """(T, h, w) bool: the held object (label >= 4) in the window around each centre (T, 2) (row,
+    column) of the labels (T, H, W); outside the image: not the object."""
+    hh, hw = half
+    padded = np.pad(np.asarray(labels) >= GT_OBJECT, ((0, 0), (hh, hh), (hw, hw)))
+    r, c = (np.rint(np.asarray(centres, float)).astype(int).T[k] for k in (0, 1))
+    rows = r[:, None, None] + np.arange(2 * hh + 1)[None, :, None]
+    cols = c[:, None, None] + np.arange(2 * hw + 1)[None, None, :]
+    inside = (rows >= 0) & (rows < padded.shape[1]) & (cols >= 0) & (cols < padded.shape[2])
+    t = np.arange(len(r))[:, None, None]
+    return inside & padded[t, np.clip(rows, 0, padded.shape[1] - 1), np.clip(cols, 0, padded.shape[2] - 1)]
+
+
+def pooled_iou(ours: np.ndarray, truth: np.ndarray) -> tuple[int, int]:
+    """(intersection, union) pixel counts summed over the frames of two (T, h, w) masks."""
+    return int((ours & truth).sum()), int((ours | truth).sum())
+
+
+def match_events(true_pickup, true_putdown_last, pickup, putdown) -> EventMatch:
+    """Each true period [pick-up, put-down] (put-down the last held frame) is matched to the found
+    period [pickup, putdown) (putdown exclusive) that overlaps it most and no other true period has
+    taken (greedy, in order of overlap); unmatched ones are missed or spurious."""
+    t0, t1 = np.asarray(true_pickup, int), np.asarray(true_putdown_last, int) + 1
+    f0, f1 = np.asarray(pickup, int), np.asarray(putdown, int)
+    overlap = np.clip(np.minimum(t1[:, None], f1[None]) - np.maximum(t0[:, None], f0[None]), 0, None)
+    pairs = []
+    free_t, free_f = np.ones(len(t0), bool), np.ones(len(f0), bool)
+    for i, j in zip(*np.unravel_index(np.argsort(-overlap, axis=None), overlap.shape)):
+        if overlap[i, j] > 0 and free_t[i] and free_f[j]:
+            pairs.append((i, j))
+            free_t[i] = free_f[j] = False
+    i, j = (np.array(v, int) for v in zip(*pairs)) if pairs else (np.zeros(0, int), np.zeros(0, int))
+    return EventMatch(f0[j] - t0[i], f1[j] - t1[i], int(free_t.sum()), int(free_f.sum()))
+
+
+def hand_width(cov: np.ndarray, observed: np.ndarray) -> float:
+    """The hand's width in px (LfD §III-B's sigma_m): the median over the observed frames of the
+    tracked blob's minor axis, 4 sqrt(lambda_min) of its second moments (T, 2, 2) (a uniform ellipse's
+    full width). ValueError if the hand was never observed."""
+    if not np.any(observed):
+        raise ValueError("tracks: the hand was never observed, so its width (sigma_m) is unknown")
+    smallest = np.linalg.eigvalsh(np.asarray(cov, np.float64)[np.asarray(observed, bool)])[:, 0]
+    return float(np.median(4.0 * np.sqrt(np.maximum(smallest, 0.0))))

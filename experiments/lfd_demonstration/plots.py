@@ -1,0 +1,77 @@
+"""Figures of the learning-from-demonstration study: LfD 2009 Fig. 3 (the likelihood-ratio maps of one
+frame) and Fig. 8 (raw, filtered and true "object in hand" over a long recording)."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from experiments.bench.object_peer import window  # noqa: E402
+from experiments.data.video.settings import ACTIONS, OBJECTS  # noqa: E402
+
+
+def _shown_frame(first) -> int:
+    """The frame of Fig. 3: the held-object frame (hand moved, object found) where our mask overlaps the
+    truth most; else the held-object frame with the most true object pixels in the window."""
+    truth = first["truth"].sum(axis=(1, 2))
+    overlap = (first["masks"] & first["truth"]).sum(axis=(1, 2)) * first["decided"]
+    return int(np.argmax(overlap)) if overlap.max() > 0 else int(np.argmax(truth))
+
+
+def likelihood_ratios(first) -> plt.Figure:
+    """Fig. 3 b-j for one frame of the first long recording: the window, log r_m (temporal), log r_s
+    (stereo), their sum, the sum above the threshold, our mask and the true held object."""
+    t = _shown_frame(first)
+    seg, half = first["objects"], first["half"]
+    centre = np.asarray(first["hand"])[t]
+    temporal = np.asarray(seg.temporal.log_ratio)[t - 1]
+    stereo = np.asarray(seg.stereo.log_ratio)[t - 1]
+    joint = temporal + stereo
+    panels = [("left window", window(first["grey"][t], centre, half), "gray"),
+              ("log r_m (temporal, eq. 1)", temporal, "RdBu_r"),
+              ("log r_s (stereo, eqs. 3-4)", stereo, "RdBu_r"), ("log r_m + log r_s", joint, "RdBu_r"),
+              ("our mask (Fig. 3j)", first["masks"][t], "gray"), ("true held object", first["truth"][t], "gray")]
+    fig, axes = plt.subplots(1, len(panels), figsize=(2.4 * len(panels), 2.8))
+    for ax, (title, image, cmap) in zip(axes, panels):
+        if cmap == "RdBu_r":
+            lim = max(float(np.abs(image).max()), 1e-6)
+            im = ax.imshow(image, cmap=cmap, vmin=-lim, vmax=lim)
+            fig.colorbar(im, ax=ax, fraction=0.046)
+        else:
+            ax.imshow(image, cmap=cmap)
+        ax.set_title(title, fontsize=8)
+        ax.axis("off")
+    fig.suptitle(f"frame {t} of the first long recording (LfD 2009 Fig. 3)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def object_in_hand(first, fps: float) -> plt.Figure:
+    """Fig. 8: per frame the raw "object in hand" (a mask found, where the hand moved), the filtered
+    classification with its periods, and the truth, over the first long recording."""
+    rec, periods = first["rec"], first["periods"]
+    T = len(first["raw"])
+    truth = np.zeros(T, bool)
+    for a, b in zip(rec.pickup_frames, rec.putdown_frames):
+        truth[a:b + 1] = True
+    t = np.arange(T) / fps
+    fig, ax = plt.subplots(figsize=(10, 2.8))
+    ax.fill_between(t, 2.1, 2.1 + 0.8 * truth, step="post", color="k", alpha=0.7, label="truth")
+    ax.fill_between(t, 1.05, 1.05 + 0.8 * periods.in_hand, step="post", color="tab:blue", alpha=0.7,
+                    label="filtered (periods)")
+    raw = first["raw"] & first["decided"]
+    ax.fill_between(t, 0, 0.8 * raw, step="post", color="tab:orange", alpha=0.7, label="raw (mask found, hand moved)")
+    ax.fill_between(t, 0, 0.8 * (~first["decided"]), step="post", color="0.85", alpha=0.7,
+                    label="undecided (hand still or lost)")
+    for a, b, act, obj in zip(rec.pickup_frames, rec.putdown_frames, rec.event_action, rec.event_object):
+        ax.text((a + b) / 2 / fps, 3.0, f"{ACTIONS[act]} {OBJECTS[obj]}", ha="center", fontsize=7)
+    ax.set_yticks([0.4, 1.45, 2.5], ["raw", "filtered", "truth"])
+    ax.set_xlabel("time (s)")
+    ax.set_ylim(0, 3.3)
+    ax.legend(fontsize=7, loc="upper right", ncol=4, bbox_to_anchor=(1, -0.25))
+    ax.set_title("object in hand over the first long recording (LfD 2009 Fig. 8)", fontsize=9)
+    fig.tight_layout()
+    return fig
+

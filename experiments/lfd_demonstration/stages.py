@@ -1,0 +1,136 @@
+"""The stages of the learning-from-demonstration study and its `main` (issue 19): skin models from the
+last persons' clips; every long recording through the video front end (`hog_jax.segment_stereo`),
+the object in the hand from phase differences (`hog_jax.segment_objects`) beside the OpenCV peer,
+and the pick-up / put-down events (`hog_jax.periods_in_hand`); figures; one writer."""
+from __future__ import annotations
+
+import time
+
+import jax
+import numpy as np
+
+import hog_jax
+import sim
+from experiments.bench.object_peer import peer_object_masks
+from experiments.config import StageResult, parse_config, progress
+from experiments.data import video
+from experiments.lfd_demonstration import plots
+from experiments.lfd_demonstration.config import PRESETS, Config
+from experiments.lfd_demonstration.evaluate import EventMatch, hand_width, match_events, pooled_iou, truth_windows
+from experiments.lfd_demonstration.report import report
+from experiments.video_segmentation.stages import (_pad, background_options, camera_of, segmentation_start,
+                                                   skin_stage)
+from hog_jax.tracks import HAND
+from hog_jax.video import SKIN, VideoOptions, fit_video_models, segment_stereo
+from lfd_common import enable_compilation_cache
+
+def front_end(rec, rgb_skin, settings, key, pad_frames: int):
+    """The video front end of issue 18 on one recording: (labels of the left view (T, H, W),
+    `HandFacePositions`, segmentation start)."""
+    options = VideoOptions(background=background_options(settings))
+    start = segmentation_start(settings)
+    left, right, T = _pad(rec, pad_frames)
+    models, _ = fit_video_models(key, rgb_skin, left, start, options)
+    seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
+    cut = lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a
+    return cut(seg.left.labels), jax.tree.map(cut, seg.positions), start
+
+
+def hand_tracks(positions, start: int):
+    """(left (T, 2), right (T, 2) hand positions (row, column), tracked (T,) bool): the tracked right
+    hand in both views (before `start` and where either view lost it: not tracked, positions held)."""
+    rows = lambda tracks: np.asarray(tracks.position)[:, HAND, ::-1].astype(np.float64)
+    tracked = ~np.asarray(positions.skin_left.lost)[:, HAND] & ~np.asarray(positions.skin_right.lost)[:, HAND]
+    tracked[:start] = False
+    return rows(positions.skin_left), rows(positions.skin_right), tracked
+
+
+def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int) -> dict | None:
+    """One long recording through the front end, then the object in the hand's window per frame, ours
+    and the peer's: {"ours" / "peer": (masks (T, h, w), found (T,)), "truth", "tracked", "decided",
+    ...}; None when the hand is never found (a flagged recording)."""
+    scale = cfg.scale(settings)
+    half = (round(cfg.half_window * scale),) * 2
+    labels, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + index), cfg.pad_frames)
+    hand_l, hand_r, tracked = hand_tracks(positions, start)
+    observed = np.asarray(positions.skin_left.observed)[:, HAND] & tracked
+    if not observed.any():
+        return None
+    sigma = hand_width(np.asarray(positions.skin_left.cov)[:, HAND], observed)
+    gl, gr = video.grey(rec.left), video.grey(rec.right)
+    skin = labels == SKIN
+    ours = hog_jax.segment_objects(jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, skin, half,
+                                   sigma, max_offset=half[1], blur_sigma=cfg.blur_sigma * scale,
+                                   n_samples=cfg.n_samples, threshold=cfg.threshold,
+                                   min_hand_motion=cfg.min_hand_motion * scale)
+    gate = lambda masks, found: (masks & tracked[:, None, None], found & tracked)
+    return {"ours": gate(np.asarray(ours.masks), np.asarray(ours.found)),
+            "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, skin, half)),
+            "truth": truth_windows(rec.left_labels, hand_l, half), "tracked": tracked,
+            "decided": np.asarray(ours.hand_moved) & tracked, "objects": ours, "sigma_px": sigma, "start": start,
+            "grey": gl, "half": half, "hand": hand_l}
+
+
+def _event_metrics(matches: list, prefix: str) -> dict:
+    pick = np.concatenate([np.abs(m.pickup_error) for m in matches])
+    put = np.concatenate([np.abs(m.putdown_error) for m in matches])
+    stat = lambda f, x: float(f(x)) if x.size else float("nan")
+    return {f"{prefix}pickup_error_frames": stat(np.mean, pick), f"{prefix}putdown_error_frames": stat(np.mean, put),
+            f"{prefix}pickup_error_frames_median": stat(np.median, pick),
+            f"{prefix}putdown_error_frames_median": stat(np.median, put),
+            f"{prefix}events_missed": sum(m.missed for m in matches),
+            f"{prefix}events_spurious": sum(m.spurious for m in matches), f"{prefix}events_matched": int(pick.size)}
+
+
+def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
+    """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events."""
+    radius = max(1, round(cfg.filter_radius * settings.fps / 25.0))
+    sums = {"ours": np.zeros(2, int), "peer": np.zeros(2, int)}
+    events = {"ours": [], "peer": []}
+    rows, first = [], None
+    for i, script in enumerate(progress(video.long_scripts(settings), desc="long recordings")):
+        rec = video.render_recording(settings, script, progress=progress)
+        out = recording_objects(cfg, settings, rec, rgb_skin, i)
+        row = {"person": int(script.person), "frames": int(len(rec.left)), "true_events": int(len(rec.pickup_frames)),
+               "hand_found": out is not None}
+        rows.append(row)
+        if out is None:  # flagged: every true event of the recording is missed
+            for name in events:
+                events[name].append(EventMatch(np.zeros(0, int), np.zeros(0, int), len(rec.pickup_frames), 0))
+            continue
+        row.update(sigma_px=out["sigma_px"], tracked=float(out["tracked"][out["start"]:].mean()))
+        for name in events:
+            masks, found = out[name]
+            counts = pooled_iou(masks, out["truth"])
+            sums[name] += counts
+            periods = hog_jax.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, out["decided"])
+            match = match_events(rec.pickup_frames, rec.putdown_frames, periods.pickup, periods.putdown)
+            events[name].append(match)
+            row.update({f"{name}_iou": counts[0] / max(counts[1], 1), f"{name}_missed": match.missed,
+                        f"{name}_spurious": match.spurious, f"{name}_found_events": int(len(periods.pickup))})
+            if name == "ours" and first is None:
+                first = {**out, "rec": rec, "masks": masks, "raw": found, "periods": periods}
+    metrics = {"object_mask_iou": sums["ours"][0] / max(sums["ours"][1], 1),
+               "object_mask_iou_peer": sums["peer"][0] / max(sums["peer"][1], 1), "n_recordings": len(rows),
+               "events_true": sum(r["true_events"] for r in rows),
+               "recordings": {str(k): r for k, r in enumerate(rows)},
+               **_event_metrics(events["ours"], ""), **_event_metrics(events["peer"], "peer_")}
+    figures = {} if first is None else {"fig3_likelihood_ratios.png": plots.likelihood_ratios(first),
+                                        "fig8_object_in_hand.png": plots.object_in_hand(first, settings.fps)}
+    return metrics, StageResult(metrics, figures)
+
+
+def main(argv=None) -> dict:
+    cfg, run = parse_config(Config, PRESETS, name="lfd_demonstration", argv=argv)
+    sim.setup_rendering()
+    enable_compilation_cache()
+    start_s = time.perf_counter()
+    settings = cfg.video_settings()
+    skin_persons = range(settings.n_persons - cfg.n_skin_persons, settings.n_persons)
+    _, rgb_skin, skin_metrics = skin_stage(cfg, settings, skin_persons)
+    metrics, result = object_stage(cfg, settings, rgb_skin)
+    runtime = time.perf_counter() - start_s
+    written = run.write_stages([result], header=report(cfg, settings, metrics, runtime), runtime_s=runtime,
+                               **skin_metrics)
+    print(f"wrote {run.path}/ in {runtime:.0f} s")
+    return written

@@ -1,0 +1,77 @@
+"""experiments.lfd_demonstration: the evaluation helpers against hand-made cases and NumPy, and a smoke
+run of the quick preset on one short long recording (two OACs)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from experiments.bench.object_peer import window
+from experiments.lfd_demonstration import main
+from experiments.lfd_demonstration.evaluate import hand_width, match_events, pooled_iou, truth_windows
+
+REQUIRED = ("object_mask_iou", "object_mask_iou_peer", "pickup_error_frames", "putdown_error_frames", "events_missed",
+            "events_spurious", "runtime_s")
+
+
+def test_match_events_pairs_by_overlap_and_counts_the_rest():
+    # true [10, 30], [50, 80] (last held frames); found [12, 33), [40, 60), [90, 95)
+    m = match_events([10, 50], [30, 80], [12, 40, 90], [33, 60, 95])
+    np.testing.assert_array_equal(m.pickup_error, [2, -10])
+    np.testing.assert_array_equal(m.putdown_error, [2, -21])
+    assert (m.missed, m.spurious) == (0, 1)
+    # one found period over two true ones takes the one it overlaps most; the other is missed
+    m = match_events([0, 20], [9, 49], [5], [45])
+    np.testing.assert_array_equal(m.pickup_error, [-15])
+    assert (m.missed, m.spurious) == (1, 0)
+    m = match_events([], [], [3], [9])
+    assert m.pickup_error.size == 0 and (m.missed, m.spurious) == (0, 1)
+
+
+def test_truth_windows_is_the_windowed_object_label():
+    rng = np.random.default_rng(0)
+    labels = rng.integers(0, 6, (6, 30, 40))
+    centres = np.stack([rng.uniform(0, 29, 6), rng.uniform(0, 39, 6)], axis=1)
+    ours = truth_windows(labels, centres, (4, 6))
+    np.testing.assert_array_equal(ours, np.stack([window(l >= 4, c, (4, 6), fill=False) for l, c in zip(labels, centres)]))
+    outside = truth_windows(labels, np.array([[-10.0, -10.0]] * 6), (4, 6))
+    assert not outside.any()
+    assert pooled_iou(ours, ours) == (int(ours.sum()), int(ours.sum()))
+
+
+def test_hand_width_is_the_minor_axis_of_the_observed_blobs():
+    cov = np.array([[[9.0, 0.0], [0.0, 4.0]], [[100.0, 0.0], [0.0, 100.0]]])
+    assert hand_width(cov, np.array([True, False])) == pytest.approx(8.0)
+    with pytest.raises(ValueError, match="tracks"):
+        hand_width(cov, np.zeros(2, bool))
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lfd_demonstration")
+    return out, main(["--preset", "quick", "--out", str(out), "--script-oacs", "2"])
+
+
+def test_quick_preset_writes_every_metric_and_figure(quick_run):
+    out, metrics = quick_run
+    on_disk = json.loads((out / "metrics.json").read_text())
+    for key in REQUIRED:
+        assert key in on_disk, key
+    for key in ("object_mask_iou", "object_mask_iou_peer"):
+        assert 0.0 <= on_disk[key] <= 1.0, (key, on_disk[key])
+    assert on_disk["events_true"] == 2 == on_disk["events_matched"] + on_disk["events_missed"]
+    assert math.isfinite(on_disk["recordings_0_sigma_px"]) and on_disk["recordings_0_sigma_px"] > 0
+    for name in ("fig3_likelihood_ratios.png", "fig8_object_in_hand.png", "report.md"):
+        assert (out / name).stat().st_size > 0, name
+
+
+def test_grey_is_opencvs_conversion():
+    import cv2
+
+    from experiments.data.video import grey
+
+    frames = np.random.default_rng(1).integers(0, 256, (3, 20, 30, 3), dtype=np.uint8)
+    ref = np.stack([cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in frames]).astype(int)
+    assert np.abs(grey(frames).astype(int) - ref).max() <= 1  # rounding of the weighted sum
+    with pytest.raises(ValueError, match="frames"):
+        grey(frames[..., :2])
