@@ -15,6 +15,8 @@ Stage "oac": one simulated object-action complex classified by a CHCRF (`oac_dem
 experiments.oac_recognition).
 Stage "video": one rendered stereo clip segmented into skin, person, object and background, hand and
 face tracked (`video_demo_sheet.png`; experiments.video_segmentation).
+Stage "lfd": one short long recording (two OACs): the object in the hand from phase differences and
+the pick-up / put-down events (`lfd_demo_fig8.png`; experiments.lfd_demonstration).
 """
 from __future__ import annotations
 
@@ -142,6 +144,7 @@ STAGES = {
     "phmm": _lazy_stage("experiments.phmm_tabletop"),
     "oac": _lazy_stage("experiments.oac_recognition"),
     "video": _lazy_stage("experiments.video_segmentation.demo"),
+    "lfd": _lazy_stage("experiments.lfd_demonstration.demo"),
 }
 
 

@@ -1,0 +1,32 @@
+"""Demo stage "lfd" of `experiments.demo`: one short long recording (two OACs, the quick preset) through
+the video front end, the object in the hand and the pick-up / put-down events (issue 19; the CHCRF
+labels of each found period are not in this stage yet)."""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+from experiments.config import StageResult, markdown_table
+from experiments.lfd_demonstration.config import PRESETS, Config
+from experiments.lfd_demonstration.stages import object_stage
+from experiments.video_segmentation.stages import skin_stage
+
+
+def demo_stage(cfg) -> StageResult:
+    """`make demo` stage (`lfd_demo_fig8.png`). cfg: the demo's config (only `cfg.seed` is used)."""
+    start = time.perf_counter()
+    lcfg = dataclasses.replace(Config(**PRESETS["quick"]), seed=int(cfg.seed), script_oacs=2)
+    settings = lcfg.video_settings()
+    _, rgb_skin, _ = skin_stage(lcfg, settings, range(settings.n_persons - lcfg.n_skin_persons, settings.n_persons))
+    metrics, result = object_stage(lcfg, settings, rgb_skin)
+    keys = ("object_mask_iou", "object_mask_iou_peer", "events_true", "events_matched", "events_missed",
+            "events_spurious", "pickup_error_frames", "putdown_error_frames")
+    out = {f"lfd_demo_{k}": metrics[k] for k in keys}
+    out["lfd_demo_s"] = time.perf_counter() - start
+    report = "\n".join([
+        "## Stage lfd: the object in the hand and pick-up / put-down events in a long recording", "",
+        f"One {settings.width} x {settings.height} recording at {settings.fps:g} fps with two OACs: front end, "
+        "phase-difference object segmentation (LfD 2009 §III-B), temporal segmentation (§III-D).", "",
+        markdown_table(["quantity", "value"],
+                       [(k, out[f"lfd_demo_{k}"]) for k in keys] + [("time (s)", out["lfd_demo_s"])])])
+    return StageResult(out, {"lfd_demo_fig8.png": result.figures.get("fig8_object_in_hand.png")}, report)
