@@ -15,7 +15,7 @@ class Config:
 
     seed: int = 0
     video_preset: str = "paper"        # experiments.data.video preset of the recordings
-    n_scripts: int = 4                 # long recordings (script i by person i); 0: the video preset's
+    n_scripts: int = 0                 # long recordings (script i by person i); 0: the video preset's (paper: 2)
     script_oacs: int = 0               # OACs per recording (at least the 2 unseen ones); 0: the video preset's
     n_skin_persons: int = 2            # the last persons' clips train the skin models (no script is theirs)
     pad_frames: int = 50               # recordings are padded to a multiple of this (one compilation per length)
@@ -24,6 +24,7 @@ class Config:
     threshold: float = 0.01            # log r_m r_s > threshold (the paper's exp(0.01))
     n_samples: int = 100               # eq. 4's N random disparities
     min_hand_motion: float = 2.0       # px at 320 x 240: a frame decides only where the hand moved (README)
+    remove_person: bool = False        # also remove the pixels the level sets call person (the paper: the hand's only)
     filter_radius: int = 1             # the closing and opening over time (frames at 25 fps)
     min_duration_s: float = 1.0        # shorter "object in hand" periods are removed (LfD §III-D)
     event_tolerance_s: float = 2.0     # a found period matches a true one it overlaps; errors beyond this are flagged
@@ -38,6 +39,8 @@ class Config:
             check_real(getattr(self, name), name, min_value=0.0, exclusive_min=True)
         check_real(self.threshold, "threshold")
         check_real(self.min_hand_motion, "min_hand_motion", min_value=0.0)
+        if not isinstance(self.remove_person, bool):
+            raise ValueError(f"remove_person: expected a bool, got {self.remove_person!r}")
 
     def video_settings(self) -> video.VideoSettings:
         overrides = {k: getattr(self, k) for k in ("n_scripts", "script_oacs") if getattr(self, k)}

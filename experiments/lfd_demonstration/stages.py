@@ -21,7 +21,7 @@ from experiments.lfd_demonstration.report import report
 from experiments.video_segmentation.stages import (_pad, background_options, camera_of, segmentation_start,
                                                    skin_stage)
 from hog_jax.tracks import HAND
-from hog_jax.video import SKIN, VideoOptions, fit_video_models, segment_stereo
+from hog_jax.video import PERSON, SKIN, VideoOptions, fit_video_models, segment_stereo
 from lfd_common import enable_compilation_cache
 
 def front_end(rec, rgb_skin, settings, key, pad_frames: int):
@@ -58,14 +58,14 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int) -> dict 
         return None
     sigma = hand_width(np.asarray(positions.skin_left.cov)[:, HAND], observed)
     gl, gr = video.grey(rec.left), video.grey(rec.right)
-    skin = labels == SKIN
-    ours = hog_jax.segment_objects(jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, skin, half,
+    removed = (labels == SKIN) | ((labels == PERSON) if cfg.remove_person else False)  # not the object
+    ours = hog_jax.segment_objects(jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, removed, half,
                                    sigma, max_offset=half[1], blur_sigma=cfg.blur_sigma * scale,
                                    n_samples=cfg.n_samples, threshold=cfg.threshold,
                                    min_hand_motion=cfg.min_hand_motion * scale)
     gate = lambda masks, found: (masks & tracked[:, None, None], found & tracked)
     return {"ours": gate(np.asarray(ours.masks), np.asarray(ours.found)),
-            "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, skin, half)),
+            "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, removed, half)),
             "truth": truth_windows(rec.left_labels, hand_l, half), "tracked": tracked,
             "decided": np.asarray(ours.hand_moved) & tracked, "objects": ours, "sigma_px": sigma, "start": start,
             "grey": gl, "half": half, "hand": hand_l}
