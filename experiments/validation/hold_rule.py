@@ -1,0 +1,63 @@
+"""Validation of the video front end's options on seed-1 clips (issue 18; never the test persons): the full
+pipeline's hand / face / person / object IoU per clip for `VideoOptions` overrides; skin from persons 1 and 3.
+
+    python experiments/validation/hold_rule.py OUT 'p:c,p:c,...' '{"follow_light": true}' [render_only]
+
+The follow-light choice in README came from
+    ... OUT '0:0,0:2,9:0,9:2,2:0,5:1,8:2' '{"follow_light": true}'   (and false).
+"""
+
+import json, sys, time
+import jax, numpy as np
+import sim, hog_jax
+from experiments.data import video
+from experiments.video_segmentation.stages import camera_of, segmentation_start, background_options, _pad
+from experiments.video_segmentation.evaluate import evaluate_clip, TRACKED
+from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_stereo
+from lfd_common import enable_compilation_cache
+
+out, pairs, over = sys.argv[1], [tuple(map(int, s.split(":"))) for s in sys.argv[2].split(",")], json.loads(sys.argv[3])
+render_only = len(sys.argv) > 4
+sim.setup_rendering()
+enable_compilation_cache()
+settings = video.preset("paper", seed=1)
+SKIN_PERSONS = (1, 3)
+recs = {}
+for p, c, r, script in video.clip_scripts(settings):
+    if r == 0 and ((p, c) in pairs or (p in SKIN_PERSONS and c == 0)):
+        t = time.time()
+        recs[p, c] = video.render_recording(settings, script)
+        print("rendered", p, c, round(time.time() - t), flush=True)
+if render_only:
+    sys.exit()
+rng = np.random.default_rng(0)
+skin = []
+for p in SKIN_PERSONS:
+    rec = recs[p, 0]
+    lab = rec.left_labels[::3]
+    m = (lab == 2) | (lab == 3)
+    skin.append(rec.left[::3][m][rng.random(m.sum()) < 0.05])
+rgb_skin = fit_skin(jax.random.key(1), np.concatenate(skin))
+options = VideoOptions(background=background_options(settings))._replace(**over)
+start = segmentation_start(settings)
+res = {}
+for n, (p, c) in enumerate(pairs):
+    rec = recs[p, c]
+    left, right, T = _pad(rec, 50)
+    models, _ = fit_video_models(jax.random.key(1 + n), rgb_skin, left, start, options)
+    seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
+    seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
+    skin_mask = np.asarray(
+        hog_jax.segment(
+            hog_jax.fit_skin_model(jax.random.key(0), np.concatenate(skin), rec.left[0].reshape(-1, 3)[::50]), rec.left
+        ).skin
+    )
+    counts = evaluate_clip(rec, skin_mask, seg, start, camera_of(rec))
+    iou = {r: counts.inter[TRACKED, r] / max(counts.union[TRACKED, r], 1) for r in ("hand", "face", "person", "object")}
+    res[f"{p}:{c}"] = iou
+    np.save(f"{out}_{p}_{c}_labels.npy", np.asarray(seg.left.labels))
+    print(p, c, {k: round(v, 3) for k, v in iou.items()}, flush=True)
+print(
+    "mean person", np.mean([v["person"] for v in res.values()]), "mean hand", np.mean([v["hand"] for v in res.values()])
+)
+json.dump(res, open(out + ".json", "w"), indent=1)
