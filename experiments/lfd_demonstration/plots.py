@@ -17,12 +17,13 @@ def _shown_frame(first) -> int:
     truth most; else the held-object frame with the most true object pixels in the window."""
     truth = first["truth"].sum(axis=(1, 2))
     overlap = (first["masks"] & first["truth"]).sum(axis=(1, 2)) * first["decided"]
-    return int(np.argmax(overlap)) if overlap.max() > 0 else int(np.argmax(truth))
+    return max(int(np.argmax(overlap)) if overlap.max() > 0 else int(np.argmax(truth)), 1)  # cues start at frame 1
 
 
 def likelihood_ratios(first) -> plt.Figure:
-    """Fig. 3 b-j for one frame of the first long recording: the window, log r_m (temporal), log r_s
-    (stereo), their sum, the sum above the threshold, our mask and the true held object."""
+    """Fig. 3 b-j for one frame of the first long recording (`_shown_frame`: our best-overlapping one,
+    so the figure shows the method at its best, not a typical frame): the window, log r_m (temporal),
+    log r_s (stereo), their sum, our mask and the true held object."""
     t = _shown_frame(first)
     seg, half = first["objects"], first["half"]
     centre = np.asarray(first["hand"])[t]
@@ -43,7 +44,8 @@ def likelihood_ratios(first) -> plt.Figure:
             ax.imshow(image, cmap=cmap)
         ax.set_title(title, fontsize=8)
         ax.axis("off")
-    fig.suptitle(f"frame {t} of the first long recording (LfD 2009 Fig. 3)", fontsize=9)
+    fig.suptitle(f"frame {t} of the first long recording, where our mask overlaps the truth most (LfD 2009 Fig. 3)",
+                 fontsize=9)
     fig.tight_layout()
     return fig
 
