@@ -8,7 +8,8 @@ import pytest
 
 from experiments.bench.object_peer import window
 from experiments.lfd_demonstration import main
-from experiments.lfd_demonstration.evaluate import hand_width, match_events, pooled_iou, truth_windows
+from experiments.lfd_demonstration.evaluate import (hand_width, held_object_motion, iou_by_bin, match_events,
+                                                    pooled_iou, truth_windows)
 
 REQUIRED = ("object_mask_iou", "object_mask_iou_peer", "pickup_error_frames", "putdown_error_frames", "events_missed",
             "events_spurious", "runtime_s")
@@ -33,10 +34,42 @@ def test_truth_windows_is_the_windowed_object_label():
     labels = rng.integers(0, 6, (6, 30, 40))
     centres = np.stack([rng.uniform(0, 29, 6), rng.uniform(0, 39, 6)], axis=1)
     ours = truth_windows(labels, centres, (4, 6))
-    np.testing.assert_array_equal(ours, np.stack([window(l >= 4, c, (4, 6), fill=False) for l, c in zip(labels, centres)]))
+    reference = np.stack([window(lab >= 4, c, (4, 6), fill=False) for lab, c in zip(labels, centres)])
+    np.testing.assert_array_equal(ours, reference)
     outside = truth_windows(labels, np.array([[-10.0, -10.0]] * 6), (4, 6))
     assert not outside.any()
     assert pooled_iou(ours, ours) == (int(ours.sum()), int(ours.sum()))
+
+
+def test_iou_by_bin_pools_each_bin():
+    truth = np.zeros((4, 2, 2), bool)
+    truth[:, 0, 0] = True
+    ours = truth.copy()
+    ours[1] = True  # frame 1: 1 of 4 pixels right
+    values = np.array([0.5, 1.5, np.nan, 5.0])
+    got = iou_by_bin(ours, truth, values, (0.0, 1.0, 2.0, 4.0, np.inf))
+    assert got["0-1"] == 1.0 and got["1-2"] == 0.25 and math.isnan(got["2-4"]) and got["4-inf"] == 1.0
+
+
+def test_held_object_motion_from_known_geometry():
+    """An object held in frames 1-4, 3 cm behind the hand, its ellipse turning by 5 degrees a frame
+    (across the +-90 degree wrap between frames 3 and 4)."""
+    from types import SimpleNamespace
+
+    T, K, J = 5, 3, 5
+    angles = np.radians([0.0, 80.0, 85.0, 90.0, 95.0])
+    rot = np.stack([np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]) for a in angles])
+    cov = np.zeros((T, 2, J, 2, 2))
+    cov[:, 0, 2 + 1] = rot @ np.diag([9.0, 1.0]) @ rot.transpose(0, 2, 1)
+    found = np.zeros((T, 2, J), bool)
+    found[:, 0, 2 + 1] = True
+    object_cam = np.zeros((T, K, 3))
+    object_cam[:, 1, 2] = 0.83
+    rec = SimpleNamespace(object=np.array([-1, 1, 1, 1, 1]), object_cam=object_cam,
+                          hand_cam=np.tile([0.0, 0.0, 0.8], (T, 1)), ellipse_cov=cov, ellipse_found=found)
+    depth, turn = held_object_motion(rec)
+    assert np.isnan(depth[0]) and np.allclose(depth[1:], 3.0)
+    assert np.isnan(turn[:2]).all() and np.allclose(turn[2:], 5.0)
 
 
 def test_hand_width_is_the_minor_axis_of_the_observed_blobs():
@@ -61,7 +94,9 @@ def test_quick_preset_writes_every_metric_and_figure(quick_run):
         assert 0.0 <= on_disk[key] <= 1.0, (key, on_disk[key])
     assert on_disk["events_true"] == 2 == on_disk["events_matched"] + on_disk["events_missed"]
     assert math.isfinite(on_disk["recordings_0_sigma_px"]) and on_disk["recordings_0_sigma_px"] > 0
-    for name in ("fig3_likelihood_ratios.png", "fig8_object_in_hand.png", "report.md"):
+    by_depth = [k for k in on_disk if k.startswith("iou_by_depth_offset_cm_ours_")]
+    assert len(by_depth) == 5 and any(math.isfinite(on_disk[k]) for k in by_depth)
+    for name in ("fig3_likelihood_ratios.png", "fig8_object_in_hand.png", "iou_vs_depth_and_rotation.png", "report.md"):
         assert (out / name).stat().st_size > 0, name
 
 

@@ -69,3 +69,33 @@ def hand_width(cov: np.ndarray, observed: np.ndarray) -> float:
         raise ValueError("tracks: the hand was never observed, so its width (sigma_m) is unknown")
     smallest = np.linalg.eigvalsh(np.asarray(cov, np.float64)[np.asarray(observed, bool)])[:, 0]
     return float(np.median(4.0 * np.sqrt(np.maximum(smallest, 0.0))))
+
+
+def held_object_motion(rec) -> tuple[np.ndarray, np.ndarray]:
+    """(depth offset (T,) cm, rotation (T,) degrees per frame) of the held object, NaN where none is
+    held: the object's centre minus the hand's along the left camera's z (LfD §III-B's failure case: an
+    object not at the hand's depth), and the change since the previous frame of the orientation of the
+    object's left-view mask ellipse (its major axis, modulo 180 degrees; in-plane rotation, the case
+    where the object does not move with the hand's translation)."""
+    T = len(rec.object)
+    held = np.asarray(rec.object) >= 0
+    k = np.where(held, rec.object, 0)
+    t = np.arange(T)
+    depth = 100.0 * (rec.object_cam[t, k, 2] - rec.hand_cam[:, 2])
+    cov = rec.ellipse_cov[t, 0, 2 + k]  # TRACKED: hand, face, then the objects
+    angle = np.degrees(0.5 * np.arctan2(2 * cov[:, 0, 1], cov[:, 0, 0] - cov[:, 1, 1]))
+    seen = held & rec.ellipse_found[t, 0, 2 + k]
+    turn = np.abs((np.diff(angle, prepend=angle[:1]) + 90.0) % 180.0 - 90.0)
+    same = np.concatenate([[False], (k[1:] == k[:-1]) & seen[1:] & seen[:-1]])
+    return np.where(held, depth, np.nan), np.where(same, turn, np.nan)
+
+
+def iou_by_bin(ours: np.ndarray, truth: np.ndarray, values: np.ndarray, edges) -> dict[str, float]:
+    """Pooled IoU of the (T, h, w) masks over the frames whose value (T,) falls in each [edges[i],
+    edges[i + 1]) (NaN frames left out), keyed "lo-hi"; NaN for an empty bin."""
+    out = {}
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = np.isfinite(values) & (values >= lo) & (values < hi)
+        inter, union = pooled_iou(ours[sel], truth[sel])
+        out[f"{lo:g}-{hi:g}"] = inter / union if union else float("nan")
+    return out

@@ -29,6 +29,13 @@ def report(cfg, settings, m: dict, runtime_s: float) -> str:
                            _f(r.get("ours_iou")), _f(r.get("peer_iou")), r["true_events"],
                            r.get("ours_found_events", 0), r.get("peer_found_events", 0)]
                           for k, r in m["recordings"].items()])
+    by = m.get("iou_by")
+    failure = "" if not by else "Object IoU against the paper's failure cases (held frames binned):\n\n"
+    failure += "" if not by else markdown_table(
+        ["bin", "depth offset (cm): ours", "peer", "rotation (deg / frame): ours", "peer"],
+        [[b, _f(by["depth_offset_cm_ours"][b]), _f(by["depth_offset_cm_peer"][b]),
+          _f(by["rotation_deg_per_frame_ours"][r]), _f(by["rotation_deg_per_frame_peer"][r])]
+         for b, r in zip(by["depth_offset_cm_ours"], by["rotation_deg_per_frame_ours"])])
     return f"""# Learning from an unsegmented demonstration (LfD 2009 §III-B, §III-D)
 
 Recordings: {m['n_recordings']} long unsegmented scripts of `experiments.data.video` preset `{cfg.video_preset}`
@@ -45,6 +52,8 @@ flagged (no σ_m, IoU "–") and its true events count as missed.
 {table}
 
 {per}
+
+{failure}
 
 The paper reports all 5 actions of its one demonstration found, with errors of 1.2 frames (pick-up) and 3.4
 (put-down).

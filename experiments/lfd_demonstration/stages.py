@@ -16,7 +16,8 @@ from experiments.config import StageResult, parse_config, progress
 from experiments.data import video
 from experiments.lfd_demonstration import plots
 from experiments.lfd_demonstration.config import PRESETS, Config
-from experiments.lfd_demonstration.evaluate import EventMatch, hand_width, match_events, pooled_iou, truth_windows
+from experiments.lfd_demonstration.evaluate import (EventMatch, hand_width, held_object_motion, iou_by_bin,
+                                                    match_events, pooled_iou, truth_windows)
 from experiments.lfd_demonstration.report import report
 from experiments.video_segmentation.stages import (_pad, background_options, camera_of, segmentation_start,
                                                    skin_stage)
@@ -82,12 +83,26 @@ def _event_metrics(matches: list, prefix: str) -> dict:
             f"{prefix}events_spurious": sum(m.spurious for m in matches), f"{prefix}events_matched": int(pick.size)}
 
 
+DEPTH_EDGES_CM = (0.0, 1.0, 2.0, 4.0, 8.0, np.inf)
+ROTATION_EDGES_DEG = (0.0, 1.0, 2.0, 4.0, 8.0, np.inf)
+
+
+def failure_cases(w: dict) -> dict:
+    """LfD §III-B's failure cases: pooled object IoU (ours, peer) by the held object's depth offset from
+    the hand (|cm|) and by its in-plane rotation (degrees per frame), `evaluate.held_object_motion`."""
+    return {f"{what}_{name}": iou_by_bin(w[name], w["truth"], w[key], edges)
+            for what, key, edges in (("depth_offset_cm", "depth", DEPTH_EDGES_CM),
+                                     ("rotation_deg_per_frame", "rotation", ROTATION_EDGES_DEG))
+            for name in ("ours", "peer")}
+
+
 def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
     """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events."""
     radius = max(1, round(cfg.filter_radius * settings.fps / 25.0))
     sums = {"ours": np.zeros(2, int), "peer": np.zeros(2, int)}
     events = {"ours": [], "peer": []}
     rows, first = [], None
+    windows = {"ours": [], "peer": [], "truth": [], "depth": [], "rotation": []}  # for the failure cases
     for i, script in enumerate(progress(video.long_scripts(settings), desc="long recordings")):
         rec = video.render_recording(settings, script, progress=progress)
         out = recording_objects(cfg, settings, rec, rgb_skin, i)
@@ -99,6 +114,10 @@ def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
                 events[name].append(EventMatch(np.zeros(0, int), np.zeros(0, int), len(rec.pickup_frames), 0))
             continue
         row.update(sigma_px=out["sigma_px"], tracked=float(out["tracked"][out["start"]:].mean()))
+        depth, rotation = held_object_motion(rec)
+        for key, value in (("ours", out["ours"][0]), ("peer", out["peer"][0]), ("truth", out["truth"]),
+                           ("depth", np.abs(depth)), ("rotation", rotation)):
+            windows[key].append(value)
         for name in events:
             masks, found = out[name]
             counts = pooled_iou(masks, out["truth"])
@@ -115,8 +134,13 @@ def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
                "events_true": sum(r["true_events"] for r in rows),
                "recordings": {str(k): r for k, r in enumerate(rows)},
                **_event_metrics(events["ours"], ""), **_event_metrics(events["peer"], "peer_")}
-    figures = {} if first is None else {"fig3_likelihood_ratios.png": plots.likelihood_ratios(first),
-                                        "fig8_object_in_hand.png": plots.object_in_hand(first, settings.fps)}
+    if first is None:
+        return metrics, StageResult(metrics)
+    failure = failure_cases({k: np.concatenate(v) for k, v in windows.items()})
+    metrics["iou_by"] = failure
+    figures = {"fig3_likelihood_ratios.png": plots.likelihood_ratios(first),
+               "fig8_object_in_hand.png": plots.object_in_hand(first, settings.fps),
+               "iou_vs_depth_and_rotation.png": plots.iou_by_motion(failure)}
     return metrics, StageResult(metrics, figures)
 
 
