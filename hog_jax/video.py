@@ -90,8 +90,8 @@ class VideoOptions(NamedTuple):
     """motion_penalty (nats, >= 0) and object_margin (nats) of the region scores (module docstring);
     follow_light: the held pixels' background models follow the frame's mean change of the learnt
     ones (`follow_light`); the background model's and the level sets' options; person_frames: how
-    many frames before `start` teach the person and background GMMs; skin_match_quantile in (0, 1): the skin model's
-    match threshold (module docstring). The level sets re-seed a region where its score
+    many frames before `start` teach the person and background GMMs; skin_match_quantile in (0, 1):
+    the skin model's match threshold (module docstring). The level sets re-seed a region where its score
     beats every other by 3 nats (`LevelSetOptions.reseed_margin`): a hand hidden in one frame comes
     back in the next."""
 
