@@ -10,6 +10,11 @@ reduce over the few (P = 4-6) pseudo-states of a state, which vectorises poorly.
 (`ColumnPosteriors`, `ColumnMessages`). Log-space sums use `lfd_common`'s NaN-safe `safe_logsumexp`
 / `safe_logaddexp`: -inf (unreachable pseudo-states, forbidden transitions) keeps finite gradients.
 
+Banded forward: at frame t only the states of `model.state_band` (from the start and to an end by
+frame T - 1) can carry posterior mass, so `forward_loglik`, and through its gradient the posteriors
+and expected counts, work on those W states only (W = 6 of N = 20 for durations 4-6 over T = 100).
+`forward_backward` and `viterbi` run over all N states.
+
 A sequence of `length` L is padded to T frames: messages for t >= L are frozen, so padding changes
 neither values nor gradients. Shapes: T frames, N states, P pseudo-states per state, B sequences.
 """
@@ -21,9 +26,10 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from lfd_common import NEG_INF, safe_logaddexp, safe_logsumexp
-from phmm_jax.model import HMM, HMMConfig
+from phmm_jax.model import HMM, HMMConfig, state_band
 
 
 @partial(jax.tree_util.register_dataclass, data_fields=["log_cont", "log_exit"], meta_fields=["config"])
@@ -73,17 +79,24 @@ def initial_message(c: Chain, log_b0):
     return start + log_b0[:, None]
 
 
-def predict(c: Chain, log_alpha):
-    """One step of the structured transition: log Σ_prev alpha(prev) a(prev -> ·) (N, P, B)."""
-    via_cont = log_alpha + c.log_cont
-    leaving = safe_logsumexp(log_alpha[:, c.first_exit:] + c.log_exit[:, c.first_exit:], axis=1)  # (N, B)
-    entering = jnp.concatenate([_neg_inf_like(leaving, 0), leaving[:-1]], axis=0)
+def _transition(c: Chain, log_cont, log_exit, log_alpha):
+    """One step of the structured transition from R states' messages log_alpha (R, P, B): log Σ_prev
+    alpha(prev) a(prev -> ·) for those R states and the one above them, (R + 1, P, B)."""
+    via_cont = log_alpha + log_cont
+    leaving = safe_logsumexp(log_alpha[:, c.first_exit:] + log_exit[:, c.first_exit:], axis=1)  # (R, B)
+    entering = jnp.concatenate([_neg_inf_like(leaving, 0), leaving], axis=0)
     # Shift, then overwrite column 0: XLA:CPU compiles this into a faster step than concatenating
     # `entering` as column 0.
-    moved = jnp.concatenate([_neg_inf_like(via_cont, 1), via_cont[:, :-1]], axis=1).at[:, 0].set(entering)
+    shifted = jnp.concatenate([_neg_inf_like(via_cont, 1), via_cont[:, :-1]], axis=1)
+    moved = jnp.concatenate([shifted, _neg_inf_like(shifted, 0)], axis=0).at[:, 0].set(entering)
     if c.self_loop:
-        moved = moved.at[:, -1].set(safe_logaddexp(moved[:, -1], via_cont[:, -1]))
+        moved = moved.at[:-1, -1].set(safe_logaddexp(moved[:-1, -1], via_cont[:, -1]))
     return moved
+
+
+def predict(c: Chain, log_alpha):
+    """One step of the structured transition: log Σ_prev alpha(prev) a(prev -> ·) (N, P, B)."""
+    return _transition(c, c.log_cont, c.log_exit, log_alpha)[:-1]
 
 
 def retro(c: Chain, log_beta_next, log_b_next):
@@ -109,25 +122,50 @@ def _frames(log_b):
 def forward_loglik(c: Chain, log_b, lengths, offsets=None):
     """log p(x_{0:L}, path ends by exiting the last state) (B,) from log_b (T, N, B). Differentiable.
 
+    Banded: the messages hold only the W states of `model.state_band` at each frame (W = 6 of 20 for
+    durations 4-6 over 100 frames), the only ones with non-zero forward *and* backward probability.
+    Mass that leaves the band below can no longer end the path in time and is dropped; none can
+    leave it above. So the log-likelihood and its gradients are exact, at W/N of the dense cost.
+    A sequence that has ended (t >= L) keeps its message, moved along with the band.
+
     offsets: None, or (T, B, N, P) added to the forward messages (zeros: its gradient is the
     pseudo-state posteriors, see `posteriors`). Batch-major per frame, so that the gradient comes
     out in the layout the public API returns: each step transposes a cache-sized slice, cheaper than
     transposing the whole (T, N, P, B) result afterwards.
     """
+    n_frames, n_states = log_b.shape[:2]
+    start, width = state_band(c.config, n_frames)
+    moves = np.diff(start).astype(bool)
+
+    def band(a, first, axis=0):
+        return jax.lax.dynamic_slice_in_dim(a, first, width, axis)
+
+    def message(log_b_t, offset_t, first):
+        """Emission (and offset) of frame t on the band's rows, (W, P|1, B)."""
+        out = band(log_b_t, first)[:, None]
+        return out if offset_t is None else out + jnp.transpose(band(offset_t, first, 1), (1, 2, 0))
 
     def step(log_alpha, inputs):
-        t, log_b_t, offset_t = inputs
-        updated = predict(c, log_alpha) + log_b_t[:, None]
-        if offset_t is not None:
-            updated = updated + jnp.transpose(offset_t, (1, 2, 0))
-        return jnp.where(t < lengths, updated, log_alpha), None
+        t, first_prev, move, log_b_t, offset_t = inputs
+        moved = _transition(c, band(c.log_cont, first_prev), band(c.log_exit, first_prev), log_alpha)
+        kept = jnp.concatenate([log_alpha, _neg_inf_like(log_alpha, 0)], axis=0)
+        if moves.any():  # the band moves up one state on this frame, or stays
+            moved, kept = jnp.where(move, moved[1:], moved[:-1]), jnp.where(move, kept[1:], kept[:-1])
+        else:
+            moved, kept = moved[:-1], log_alpha
+        updated = moved + message(log_b_t, offset_t, first_prev + move)
+        return jnp.where(t < lengths, updated, kept), None
 
-    first = initial_message(c, log_b[0])
+    first = initial_message(c, log_b[0])[:width]
     if offsets is not None:
-        first = first + jnp.transpose(offsets[0], (1, 2, 0))
+        first = first + jnp.transpose(offsets[0, :, :width], (1, 2, 0))
     rest = None if offsets is None else offsets[1:]
-    log_alpha, _ = jax.lax.scan(step, first, (*_frames(log_b), rest))
-    return safe_logsumexp(log_alpha[-1] + c.log_exit[-1], axis=0)
+    inputs = (jnp.arange(1, n_frames), jnp.asarray(start[:-1]), jnp.asarray(moves.astype(np.int32)), log_b[1:], rest)
+    log_alpha, _ = jax.lax.scan(step, first, inputs)
+    last_row = n_states - 1 - int(start[-1])
+    if last_row >= width:  # T < N * min_duration: no path reaches the last state in time
+        return jnp.full(log_alpha.shape[-1:], NEG_INF, log_alpha.dtype)
+    return safe_logsumexp(log_alpha[last_row] + c.log_exit[-1], axis=0)
 
 
 # Posteriors and expected counts are gradients of the log-likelihood (e.g. Eisner 2016, "Inside-outside

@@ -119,18 +119,34 @@ def allowed_transitions(config: HMMConfig) -> tuple[np.ndarray, np.ndarray]:
 
 
 def reachable_states(config: HMMConfig, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
-    """(first, last) (T,) int: the states a path can be in at frame t = 0..T-1, from its start.
+    """(first, last) (T,) int: the states in which a path that starts at frame 0 and ends by frame
+    T-1 (any length L <= T) can be at frame t = 0..T-1.
 
     Before state i the path spent between `min_duration` and `max_duration` steps in each of the i
     states, so i <= t // min_duration and, with explicit durations, (i + 1) max_duration >= t + 1.
-    Every other state has forward probability zero at frame t, whatever the data.
+    After it, states i+1..N-1 need `min_duration` steps each before the end at L - 1 <= T - 1, so
+    i >= N - 1 - (T - 1 - t) // min_duration (a bound that holds for every L <= T, so one band serves
+    a padded batch). Every other state has forward or backward probability zero at frame t, whatever
+    the data, and posterior zero.
     """
     t = np.arange(n_frames)
     last = np.minimum(config.n_states - 1, t // config.min_duration)
-    if not config.explicit_duration:
-        return np.zeros_like(t), last
-    first = np.minimum(last, np.maximum(0, -(-(t + 1) // config.max_duration) - 1))
-    return first, last
+    first = config.n_states - 1 - (n_frames - 1 - t) // config.min_duration
+    if config.explicit_duration:
+        first = np.maximum(first, -(-(t + 1) // config.max_duration) - 1)
+    return np.clip(first, 0, last), last
+
+
+def state_band(config: HMMConfig, n_frames: int) -> tuple[np.ndarray, int]:
+    """(start (T,) int, width W): the band of states start[t]..start[t] + W - 1 that holds every
+    `reachable_states` state at frame t, for the banded forward recursion (`inference`).
+
+    start never decreases and moves by at most one state per frame (both bounds of
+    `reachable_states` do), and start[t] <= N - W, so the band never leaves the model.
+    """
+    first, last = reachable_states(config, n_frames)
+    width = int(np.max(last - first + 1))
+    return np.minimum(first, config.n_states - width), width
 
 
 def transitions_from_counts(config: HMMConfig, cont_counts, exit_counts, pseudocount,

@@ -243,30 +243,49 @@ def test_bad_input_is_named():
 @pytest.mark.parametrize("cfg", [P.HMMConfig(n_states=6, min_duration=2, max_duration=4),
                                  P.HMMConfig(n_states=6, min_duration=2)])
 def test_emissions_of_unreachable_states_are_skipped_exactly(cfg):
-    """`reachable_states` equals the states the dense transition graph reaches from the start at each
-    frame. Scoring only those (a batch large enough for several blocks of frames) gives the
-    log-likelihoods and posteriors of the explicit forward-backward over every state's densities, and
-    the same Viterbi paths. (Without a maximum duration every state is reachable by the later blocks,
-    so all are scored.)"""
+    """`reachable_states` equals the states of the pseudo-states the dense transition graph reaches
+    from the start at frame t *and* from which it can end by the last frame. Scoring only those (a
+    batch large enough for several blocks of frames, unequal lengths) and running the banded forward
+    gives the log-likelihoods and posteriors of the explicit forward-backward over every state's
+    densities, and the same Viterbi paths."""
     rng = np.random.default_rng(9)
     hmm = random_hmm(cfg, rng)
     n_frames, batch = 20, 200
     dense = P.expand_to_dense(hmm)
     step = np.isfinite(dense.log_transition)
-    reached = np.isfinite(dense.log_initial)
+    from_start = [np.isfinite(dense.log_initial)]
+    to_end = [np.isfinite(dense.log_final)]
+    for _ in range(n_frames - 1):
+        from_start.append(step[from_start[-1]].any(axis=0))
+        to_end.append(to_end[-1] | step[:, to_end[-1]].any(axis=1))
     first, last = P.model.reachable_states(cfg, n_frames)
     for t in range(n_frames):
-        states = np.unique(dense.state_of[reached])
+        states = np.unique(dense.state_of[from_start[t] & to_end[n_frames - 1 - t]])
         assert (first[t], last[t]) == (states.min(), states.max()) and len(states) == last[t] - first[t] + 1
-        reached = step[reached].any(axis=0)
+    start, width = P.model.state_band(cfg, n_frames)
+    assert np.all((start <= first) & (start + width - 1 >= last)) and set(np.diff(start)) <= {0, 1}
+    assert width < cfg.n_states  # the case under test: the band is narrower than the model
     X = jnp.asarray(rng.normal(size=(batch, n_frames, 2)))
     lengths = jnp.asarray(rng.integers(12, n_frames + 1, size=batch))
     chain = inference.chain(hmm)
     banded = _batched.emission_columns(hmm, X)
     full = _batched.emission_columns(hmm, X, all_states=True)
-    assert np.isneginf(np.asarray(banded)).any() == cfg.explicit_duration
     messages = inference.forward_backward(chain, full, lengths)
     np.testing.assert_allclose(inference.forward_loglik(chain, banded, lengths), messages.loglik, rtol=1e-12)
     pseudo = jnp.transpose(inference.posteriors(chain, banded, lengths).pseudo, (0, 2, 3, 1))
     np.testing.assert_allclose(pseudo, inference.pseudo_posteriors(messages), atol=1e-10)
     np.testing.assert_array_equal(inference.viterbi(chain, banded, lengths)[0], inference.viterbi(chain, full, lengths)[0])
+
+
+def test_banded_forward_of_frames_too_few_for_the_states_is_minus_infinity():
+    """T < N * min_duration: the last state is never in the band, and no path ends in time; the
+    dense recursion agrees (-inf), and the gradient stays finite."""
+    cfg = P.HMMConfig(n_states=5, min_duration=3, max_duration=4)
+    hmm = random_hmm(cfg, np.random.default_rng(3))
+    chain = inference.chain(hmm)
+    log_b = jnp.asarray(np.random.default_rng(4).normal(size=(14, 5, 3)))
+    lengths = jnp.asarray([14, 14, 10])
+    assert np.all(np.isneginf(inference.forward_loglik(chain, log_b, lengths)))
+    assert np.all(np.isneginf(inference.forward_backward(chain, log_b, lengths).loglik))
+    grad = jax.grad(lambda lb: jnp.sum(jnp.where(True, 0.0, inference.forward_loglik(chain, lb, lengths))))(log_b)
+    assert np.all(np.isfinite(grad))
