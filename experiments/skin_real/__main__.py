@@ -1,0 +1,3 @@
+from experiments.skin_real.stages import main
+
+main()

@@ -1,0 +1,104 @@
+"""Readers of the two real data sets of the study, and photos padded into batches for JAX.
+
+* `skin_nonskin_uci.tsv` (UCI Skin Segmentation, Bhatt & Dhall): one pixel per line, a header
+  `R G B T`, but the colour columns are in the order B, G, R as the UCI documentation says
+  (`tests/test_hog_segment.py::test_uci_column_order_is_bgr` checks it on the data: skin reflects
+  more red than blue); label 1 skin, 2 non-skin.
+* `hgr_hands/` (HGR1, Kawulok et al. 2014): `images/NAME.jpg` and `masks/NAME.bmp`, skin 0 (black)
+  and background 1 (white), the forearm included.
+
+Photos come in many sizes (47 of the 106 are 640 x 480, the rest nearly all different), so a batch
+is padded to one size by edge replication (the last row and column repeated): a per-pixel model
+gives the padding the values of the border, and `methods.filtered` re-replicates after every
+median pass, so a padded photo's pixels get exactly what the unpadded photo would. `valid` marks
+the real pixels, and the truth is False outside them.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+UCI_FILE = "skin_nonskin_uci.tsv"
+HGR_DIR = "hgr_hands"
+
+
+def missing_data(root: str | Path) -> str | None:
+    """None when `root` holds both data sets, else a one-line message naming what is missing."""
+    root = Path(root)
+    missing = [str(p) for p in (root / UCI_FILE, root / HGR_DIR / "images", root / HGR_DIR / "masks")
+               if not p.exists()]
+    if not missing:
+        return None
+    return (f"skin_real: real data not found ({', '.join(missing)}); pass --data DIR holding {UCI_FILE} "
+            f"and {HGR_DIR}/ (see ../shared/data/README.md)")
+
+
+def load_uci_pixels(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(rgb (N, 3) float32 in R, G, B order, is_skin (N,) bool) from the UCI file (columns B, G, R, label)."""
+    table = np.loadtxt(path, skiprows=1, dtype=np.int64)
+    if table.ndim != 2 or table.shape[1] != 4 or not np.isin(table[:, 3], (1, 2)).all():
+        raise ValueError(f"{path}: expected lines of B G R label (label 1 or 2), got shape {table.shape}")
+    return table[:, [2, 1, 0]].astype(np.float32), table[:, 3] == 1
+
+
+class Photo(NamedTuple):
+    """One HGR photo: its base name, bgr (h, w, 3) uint8 as OpenCV reads it, truth (h, w) bool skin."""
+
+    name: str
+    bgr: np.ndarray
+    truth: np.ndarray
+
+
+def hgr_names(root: str | Path, n: int = 0) -> list[str]:
+    """The sorted base names of the photos under root/hgr_hands/images; n > 0 keeps n of them evenly
+    spaced over the sorted list (the first character is the gesture, so they span the gestures)."""
+    names = sorted(p.stem for p in (Path(root) / HGR_DIR / "images").glob("*.jpg"))
+    if not names:
+        raise ValueError(f"{root}: no photos under {HGR_DIR}/images")
+    if 0 < n < len(names):
+        names = [names[i] for i in np.linspace(0, len(names) - 1, n).round().astype(int)]
+    return names
+
+
+def load_photo(root: str | Path, name: str) -> Photo:
+    """The photo `name` and its mask (skin where the mask is 0); ValueError if the sizes disagree."""
+    folder = Path(root) / HGR_DIR
+    bgr = cv2.imread(str(folder / "images" / f"{name}.jpg"), cv2.IMREAD_COLOR)
+    mask = cv2.imread(str(folder / "masks" / f"{name}.bmp"), cv2.IMREAD_GRAYSCALE)
+    if bgr is None or mask is None:
+        raise ValueError(f"{name}: could not read images/{name}.jpg or masks/{name}.bmp under {folder}")
+    if mask.shape != bgr.shape[:2]:
+        raise ValueError(f"{name}: mask {mask.shape} and photo {bgr.shape[:2]} differ in size")
+    return Photo(name, bgr, mask == 0)
+
+
+class PhotoBatch(NamedTuple):
+    """B photos padded to H x W by edge replication. rgb (B, H, W, 3) float32 in [0, 255]; rows (B, H)
+    and cols (B, W) int32: the source row / column of each padded one (min(index, size - 1)), which
+    replicate any (B, H, W) array's edges; valid (B, H, W) real pixels; truth (B, H, W) (False in the
+    padding); sizes (B, 2) (h, w)."""
+
+    rgb: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    valid: np.ndarray
+    truth: np.ndarray
+    sizes: np.ndarray
+
+
+def pad_photos(photos: list[Photo], shape: tuple[int, int]) -> PhotoBatch:
+    """`photos` (each at most `shape` = (H, W)) as one edge-replicated `PhotoBatch`."""
+    H, W = shape
+    sizes = np.array([p.truth.shape for p in photos], np.int32)
+    if (sizes[:, 0] > H).any() or (sizes[:, 1] > W).any():
+        raise ValueError(f"photos: a photo is larger than the batch shape {shape}")
+    rows = np.minimum(np.arange(H, dtype=np.int32), sizes[:, :1] - 1)
+    cols = np.minimum(np.arange(W, dtype=np.int32), sizes[:, 1:] - 1)
+    rgb = np.stack([p.bgr[r][:, c, ::-1] for p, r, c in zip(photos, rows, cols)]).astype(np.float32)
+    valid = ((np.arange(H)[None, :, None] < sizes[:, 0, None, None])
+             & (np.arange(W)[None, None, :] < sizes[:, 1, None, None]))
+    truth = np.stack([p.truth[r][:, c] for p, r, c in zip(photos, rows, cols)]) & valid
+    return PhotoBatch(rgb, rows, cols, valid, truth, sizes)
