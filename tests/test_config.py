@@ -144,3 +144,15 @@ def test_timing_helper():
     assert calls[-1] == "small" and t.result == "full"
     with pytest.raises(ValueError, match="repeats"):
         time_call(lambda: None, repeats=0)
+
+
+def test_interleaved_timing_calls_each_side_in_turn():
+    from experiments.bench.timing import time_interleaved
+
+    order = []
+    timed = time_interleaved({"a": lambda: order.append("a") or 1, "b": lambda: order.append("b") or 2}, repeats=3,
+                             block=False)
+    assert order == ["a", "b"] * 4  # one warm-up round, then three timed rounds
+    assert [len(t.times_s) for t in timed.values()] == [3, 3] and (timed["a"].result, timed["b"].result) == (1, 2)
+    with pytest.raises(ValueError, match="repeats"):
+        time_interleaved({"a": lambda: None}, repeats=0)

@@ -7,7 +7,9 @@ compile time apart.
 `warmup` is the first, separately timed call: `fn` itself (the default: its time minus the median is
 the compile time), another callable (a warm-up on a smaller input, say) or None (no warm-up).
 `setup` (optional) builds a fresh input before every call, outside the timed region; `fn` then takes
-it as its argument. `block=False` skips `jax.block_until_ready` for results that are not JAX arrays
+it as its argument. `time_interleaved` times several callables round-robin (one call of each per
+repeat), so that a load that drifts during the run reaches every side alike: use it for the sides of
+a ratio. `block=False` skips `jax.block_until_ready` for results that are not JAX arrays
 (walking a large Python result would be timed as part of the anchor's work).
 """
 from __future__ import annotations
@@ -15,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 _DEFAULT = object()
@@ -68,3 +70,24 @@ def time_call(fn: Callable, repeats: int, warmup: Callable | None | object = _DE
         seconds, out = call(fn)
         times.append(seconds)
     return Timing(tuple(times), first, out)
+
+
+def time_interleaved(fns: Mapping[str, Callable], repeats: int, block: bool = True) -> dict[str, Timing]:
+    """`time_call` of each `fn()` in `fns`, one call of each in turn per repeat (after one warm-up
+    call of each, in the same order); see the module docstring."""
+    if repeats < 1:
+        raise ValueError(f"repeats: expected >= 1, got {repeats}")
+
+    def call(f):
+        start = time.perf_counter()
+        out = _ready(f(), block)
+        return time.perf_counter() - start, out
+
+    first = {name: call(f)[0] for name, f in fns.items()}
+    times = {name: [] for name in fns}
+    last = {}
+    for _ in range(repeats):
+        for name, f in fns.items():
+            seconds, last[name] = call(f)
+            times[name].append(seconds)
+    return {name: Timing(tuple(times[name]), first[name], last[name]) for name in fns}
