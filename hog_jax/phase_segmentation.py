@@ -20,12 +20,14 @@ position p (row, column), delta its offsets. Positions are rounded to whole pixe
   sigma_s), the pixel at the hand's disparity; background the mean over N random disparity offsets
   rho_n (whole pixels, uniform in [-max_offset, max_offset], along the rows: rectified cameras) of
   G(Psi^L_t(p^L_t + delta) - Psi^R_t(p^R_t + (0, rho_n) + delta)), the pixel at any depth.
-  log r_s = log fg - log bg.
+  log r_s = log fg - log bg. The mean is taken over the 2 max_offset + 1 possible offsets, each
+  weighted by how often it was drawn: the same mean, in 2 max_offset + 1 terms whatever N.
 
 Pixels of a window outside the image have no phase: they are flagged (`valid` False) and their log
 ratio is 0; a background sample outside the image is left out of eq. 4's mean (a pixel with none
 inside is invalid). Everything is vmapped over frames; the Gaussians' normalisers cancel in the
-ratios.
+ratios. `segment_objects` computes the phase only on crops around the windows the cues read, with
+the full frame's values (the same blur, border padding and one-sided border gradient).
 """
 from __future__ import annotations
 
@@ -39,6 +41,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Key
 
 from hog_jax._checks import check_key
+from hog_jax._phase import crop_phase, frame_phase, gaussian_kernel
 from lfd_common import as_array, check_int, check_real
 
 __all__ = ["LogRatio", "ObjectSegmentation", "gradient_phase", "object_masks", "segment_objects", "stereo_log_ratio",
@@ -53,36 +56,6 @@ class LogRatio(NamedTuple):
     valid: Bool[Array, "T h w"]
 
 
-def _gaussian_kernel(sigma: float) -> np.ndarray:
-    """Normalised samples of a Gaussian at the integers, radius round(4 sigma) (scipy's default)."""
-    radius = int(4.0 * sigma + 0.5)
-    x = np.arange(-radius, radius + 1, dtype=np.float64)
-    k = np.exp(-0.5 * (x / sigma) ** 2)
-    return (k / k.sum()).astype(np.float32)
-
-
-def _blur(image, kernel):
-    """Separable Gaussian blur of (H, W) with symmetric padding (d c b a | a b c d)."""
-    r = (len(kernel) - 1) // 2
-    padded = jnp.pad(image, r, mode="symmetric")
-    H, W = image.shape
-    rows = sum(kernel[i] * padded[i:i + H, :] for i in range(len(kernel)))
-    return sum(kernel[i] * rows[:, i:i + W] for i in range(len(kernel)))
-
-
-@jax.jit
-def _phase(images, kernel):
-    def one(image):
-        gy, gx = jnp.gradient(_blur(image, kernel))
-        return _wrap(jnp.degrees(jnp.arctan2(gy, gx)))
-    return jax.vmap(one)(images)
-
-
-def _wrap(d):
-    """Degrees modulo 180 into [-90, 90)."""
-    return jnp.mod(d + 90.0, 180.0) - 90.0
-
-
 def gradient_phase(images: Float[ArrayLike, "*T H W"], blur_sigma: float = 2.0) -> Float[Array, "*T H W"]:
     """Psi (degrees in [-90, 90)) of grey images (.., H, W) (module docstring). ValueError naming the
     argument for NaN, fewer than 2 rows or columns, or blur_sigma <= 0."""
@@ -91,53 +64,77 @@ def gradient_phase(images: Float[ArrayLike, "*T H W"], blur_sigma: float = 2.0) 
         raise ValueError(f"images: expected (..., H, W) with H, W >= 2, got shape {arr.shape}")
     sigma = check_real(blur_sigma, "blur_sigma", min_value=0.0, exclusive_min=True)
     flat = arr.reshape(-1, *arr.shape[-2:])
-    return _phase(jnp.asarray(flat), _gaussian_kernel(sigma)).reshape(arr.shape)
+    return frame_phase(jnp.asarray(flat), gaussian_kernel(sigma)).reshape(arr.shape)
 
 
-def _windows(phase, centres, half: tuple[int, int]):
-    """phase (H, W) -> the (h, w) window around each centre (M, 2): a gather, NaN outside the image."""
+def _window(phase, centre, half: tuple[int, int]):
+    """phase (H, W) -> the (h, w) window around centre (2,): a gather, NaN outside the image."""
     H, W = phase.shape
-    hh, hw = half
-    rows = centres[:, 0, None, None] + jnp.arange(-hh, hh + 1)[None, :, None]  # (M, h, 1)
-    cols = centres[:, 1, None, None] + jnp.arange(-hw, hw + 1)[None, None, :]  # (M, 1, w)
+    rows = centre[0] + jnp.arange(-half[0], half[0] + 1)[:, None]
+    cols = centre[1] + jnp.arange(-half[1], half[1] + 1)[None, :]
     inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
     return jnp.where(inside, phase[jnp.clip(rows, 0, H - 1), jnp.clip(cols, 0, W - 1)], jnp.nan)
 
 
 def _log_gauss(d, sigma):
-    return -0.5 * (_wrap(d) / sigma) ** 2
+    """log G(d; 0, sigma) up to its normaliser for a difference d of two phases in [-90, 90) (so in
+    (-180, 180)), taken modulo 180 by one exact shift (NaN stays NaN)."""
+    d = jnp.where(d >= 90.0, d - 180.0, jnp.where(d < -90.0, d + 180.0, d))
+    return -0.5 * (d / sigma) ** 2
 
 
-@partial(jax.jit, static_argnames="half")
-def _temporal(psi, centres, sigma, half: tuple[int, int]):
-    """psi (T, H, W), centres (T, 2) -> LogRatio of frames 1..T-1 (T - 1, h, w)."""
-    def window(p, c):
-        return _windows(p, c[None], half)[0]
-
-    now = jax.vmap(window)(psi[1:], centres[1:])
-    moved = jax.vmap(window)(psi[:-1], centres[:-1])
-    static = jax.vmap(window)(psi[:-1], centres[1:])
+def _temporal_ratio(now, moved, static, sigma) -> LogRatio:
+    """Eq. 1 over the static background from the windows (.., h, w) of Psi_t(p_t + delta),
+    Psi_{t-1}(p_{t-1} + delta) and Psi_{t-1}(p_t + delta)."""
     ratio = _log_gauss(now - moved, sigma) - _log_gauss(now - static, sigma)
     valid = jnp.isfinite(ratio)
     return LogRatio(jnp.where(valid, ratio, 0.0), valid)
 
 
 @partial(jax.jit, static_argnames="half")
-def _stereo(left, right, centres_left, centres_right, offsets, sigma, half: tuple[int, int]):
-    """left, right (T, H, W), centres (T, 2), offsets (N,) -> LogRatio (T, h, w)."""
+def _temporal(psi, centres, sigma, half: tuple[int, int]):
+    """psi (T, H, W), centres (T, 2) -> LogRatio of frames 1..T-1 (T - 1, h, w)."""
+    window = jax.vmap(partial(_window, half=half))
+    return _temporal_ratio(window(psi[1:], centres[1:]), window(psi[:-1], centres[:-1]),
+                           window(psi[:-1], centres[1:]), sigma)
+
+
+def _stereo_ratio(window_l, strip_r, counts, sigma) -> LogRatio:
+    """Eq. 3 over eq. 4 for one frame from the left window (h, w) and the right view's strip (h, w +
+    2 d) around p^R (the window widened by d each side): eq. 4's mean over the draws, as the mean
+    over the 2 d + 1 possible offsets -d..d weighted by how often each was drawn (`counts` (2 d +
+    1,), `_offset_counts`), the samples outside the image left out."""
+    h, w = window_l.shape
+    d = (len(counts) - 1) // 2
+    fg = _log_gauss(window_l - strip_r[:, d:d + w], sigma)
+    shifted = jnp.stack([strip_r[:, k:k + w] for k in range(2 * d + 1)], axis=1)  # (h, 2 d + 1, w): offset k - d
+    samples = _log_gauss(window_l[:, None] - shifted, sigma)
+    inside = jnp.isfinite(samples)
+    n_inside = jnp.sum(jnp.where(inside, counts[:, None], 0.0), axis=1)
+    bg = jax.nn.logsumexp(jnp.where(inside, samples + jnp.log(counts)[:, None], -jnp.inf), axis=1)  # log 0: not drawn
+    valid = jnp.isfinite(fg) & (n_inside > 0)
+    return LogRatio(jnp.where(valid, fg - jnp.where(valid, bg - jnp.log(jnp.maximum(n_inside, 1.0)), 0.0), 0.0),
+                    valid)
+
+
+@partial(jax.jit, static_argnames="half")
+def _stereo(left, right, centres_left, centres_right, counts, sigma, half: tuple[int, int]):
+    """left, right (T, H, W), centres (T, 2), counts (2 d + 1,) -> LogRatio (T, h, w)."""
+    strip_half = (half[0], half[1] + (len(counts) - 1) // 2)
+
     def frame(psi_l, psi_r, c_l, c_r):
-        window_l = _windows(psi_l, c_l[None], half)[0]
-        shifted = c_r[None] + jnp.stack([jnp.zeros_like(offsets), offsets], axis=1)
-        windows_r = _windows(psi_r, jnp.concatenate([c_r[None], shifted]), half)
-        fg = _log_gauss(window_l - windows_r[0], sigma)
-        samples = _log_gauss(window_l[None] - windows_r[1:], sigma)  # (N, h, w), NaN outside
-        inside = jnp.isfinite(samples)
-        n_inside = jnp.sum(inside, axis=0)
-        bg = jax.nn.logsumexp(jnp.where(inside, samples, -jnp.inf), axis=0) - jnp.log(jnp.maximum(n_inside, 1))
-        valid = jnp.isfinite(fg) & (n_inside > 0)
-        return LogRatio(jnp.where(valid, fg - jnp.where(valid, bg, 0.0), 0.0), valid)
+        return _stereo_ratio(_window(psi_l, c_l, half), _window(psi_r, c_r, strip_half), counts, sigma)
 
     return jax.vmap(frame)(left, right, centres_left, centres_right)
+
+
+def _offset_counts(key, n_samples: int, max_offset: int) -> np.ndarray:
+    """Eq. 4's N = n_samples offsets rho_n drawn from `key` (whole pixels, uniform in [-max_offset,
+    max_offset]) as how often each of the 2 d + 1 possible offsets was drawn (2 d + 1,): the mean
+    over the N samples then costs 2 d + 1 terms, not N (fewer wherever N > 2 d + 1, as with the
+    paper's N = 100 and d the half window)."""
+    drawn = np.asarray(jax.random.randint(key, (n_samples,), -max_offset, max_offset + 1))
+    return np.bincount(drawn + max_offset, minlength=2 * max_offset + 1).astype(np.float32)
 
 
 def _check_positions(positions, name: str, n_frames: int) -> np.ndarray:
@@ -189,9 +186,8 @@ def stereo_log_ratio(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right
     s = check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
     d = check_int(max_offset, "max_offset", min_value=1)
     n = check_int(n_samples, "n_samples", min_value=1)
-    offsets = jax.random.randint(key, (n,), -d, d + 1)
-    return _stereo(jnp.asarray(psi_l), jnp.asarray(psi_r), jnp.asarray(c_l), jnp.asarray(c_r), offsets,
-                   np.float32(s), _check_window(half_window))
+    return _stereo(jnp.asarray(psi_l), jnp.asarray(psi_r), jnp.asarray(c_l), jnp.asarray(c_r),
+                   _offset_counts(key, n, d), np.float32(s), _check_window(half_window))
 
 
 def _stack(masks: np.ndarray, gap: int) -> np.ndarray:
@@ -288,9 +284,32 @@ class ObjectSegmentation(NamedTuple):
 
 
 @partial(jax.jit, static_argnames="half")
-def _hand_windows(hand_masks, centres, half: tuple[int, int]):
-    window = jax.vmap(lambda m, c: _windows(m, c[None], half)[0])(hand_masks.astype(jnp.float32), centres)
-    return window > 0.5  # NaN outside the image: not the hand
+def _cues(left, right, hand_masks, centres_l, centres_r, counts, kernel, sigma, half: tuple[int, int]):
+    """Both cues and the hand's pixels in the window of frames 1..T-1 from grey frames (T, H, W), the
+    phase computed only where the cues read it (`crop_phase`): the left window at p_t in every frame
+    (Psi_t(p_t + delta), and Psi_{t-1}(p_{t-1} + delta) of the next frame), the left window of frame
+    t - 1 at p_t (the static background), the right view's window at p^R_t widened by the largest
+    offset d (eqs. 3-4; `counts` (2 d + 1,), `_offset_counts`)."""
+    crop = jax.vmap(partial(crop_phase, half=half, kernel=kernel))
+    strip = jax.vmap(partial(crop_phase, half=(half[0], half[1] + (len(counts) - 1) // 2), kernel=kernel))
+    own = crop(left, centres_l)
+    temporal = _temporal_ratio(own[1:], own[:-1], crop(left[:-1], centres_l[1:]), sigma)
+    stereo = jax.vmap(_stereo_ratio, in_axes=(0, 0, None, None))(own[1:], strip(right[1:], centres_r[1:]), counts,
+                                                                sigma)
+    hands = jax.vmap(partial(_window, half=half))(hand_masks[1:].astype(jnp.float32), centres_l[1:])
+    return temporal, stereo, hands > 0.5  # NaN outside the image: not the hand
+
+
+def _check_frames(images, name: str, shape=None) -> np.ndarray:
+    """Grey frames (T, H, W): 8-bit ones as they are (a quarter of float32's transfer; only `_cues`'
+    crops are converted, on the device), others as float32."""
+    arr = as_array(images, name, ndim=3, dtype=np.uint8 if getattr(images, "dtype", None) == np.uint8 else np.float32)
+    if arr.shape[0] < 2 or min(arr.shape[1:]) < 2:
+        raise ValueError(f"{name}: expected (T, H, W) frames with T >= 2 (the temporal cue) and H, W >= 2, "
+                         f"got shape {arr.shape}")
+    if shape is not None and arr.shape != shape:
+        raise ValueError(f"{name}: expected (T, H, W) frames of the shape of left {shape}, got {arr.shape}")
+    return arr
 
 
 def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right: Float[ArrayLike, "T H W"],
@@ -298,22 +317,26 @@ def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right:
                     hand_masks: Bool[ArrayLike, "T H W"], half_window: tuple[int, int], sigma: float,
                     max_offset: int, blur_sigma: float = 2.0, n_samples: int = 100, threshold: float = 0.01,
                     min_fraction: float = 0.1, morphology: int = 2, min_hand_motion: float = 2.0) -> ObjectSegmentation:
-    """LfD §III-B end to end for grey stereo frames (T, H, W): `gradient_phase` of both views, the
-    temporal and stereo cues around the hand (`temporal_log_ratio`, `stereo_log_ratio`: positions
-    (T, 2) (row, column) in each view), and `object_masks` without the hand's pixels (`hand_masks`
-    (T, H, W) in the left view); `hand_moved` with `min_hand_motion` px (2: chosen on validation
-    recordings, README). ValueError naming the argument."""
+    """LfD §III-B end to end for grey stereo frames (T, H, W): the temporal and stereo cues around the
+    hand (those of `temporal_log_ratio` and `stereo_log_ratio` on `gradient_phase` of both views,
+    positions (T, 2) (row, column) in each view), and `object_masks` without the hand's pixels
+    (`hand_masks` (T, H, W) in the left view); `hand_moved` with `min_hand_motion` px (2: chosen on
+    validation recordings, README). The phase is computed only on crops around the windows that the
+    cues read (`_cues`), with the values of the full frames'. ValueError naming the argument."""
+    check_key(key, "key")
     min_motion = check_real(min_hand_motion, "min_hand_motion", min_value=0.0)
-    psi_l, psi_r = gradient_phase(left, blur_sigma), gradient_phase(right, blur_sigma)
-    if psi_l.ndim != 3 or psi_l.shape != psi_r.shape:
-        raise ValueError(f"right: expected (T, H, W) frames of the shape of left {psi_l.shape}, got {psi_r.shape}")
-    temporal = temporal_log_ratio(psi_l, hand_left, half_window, sigma)
-    centres_l = _check_positions(hand_left, "hand_left", psi_l.shape[0])
-    stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], centres_l[1:],
-                              _check_positions(hand_right, "hand_right", psi_l.shape[0])[1:], half_window, sigma,
-                              max_offset, n_samples)
-    hands = as_array(hand_masks, "hand_masks", shape=psi_l.shape, dtype=bool)
-    in_window = _hand_windows(jnp.asarray(hands[1:]), jnp.asarray(centres_l[1:]), _check_window(half_window))
+    frames_l = _check_frames(left, "left")
+    frames_r = _check_frames(right, "right", frames_l.shape)
+    blur = check_real(blur_sigma, "blur_sigma", min_value=0.0, exclusive_min=True)
+    centres_l = _check_positions(hand_left, "hand_left", frames_l.shape[0])
+    centres_r = _check_positions(hand_right, "hand_right", frames_l.shape[0])
+    hands = as_array(hand_masks, "hand_masks", shape=frames_l.shape, dtype=bool)
+    s = check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
+    d = check_int(max_offset, "max_offset", min_value=1)
+    counts = _offset_counts(key, check_int(n_samples, "n_samples", min_value=1), d)
+    temporal, stereo, in_window = _cues(jnp.asarray(frames_l), jnp.asarray(frames_r), jnp.asarray(hands),
+                                        jnp.asarray(centres_l), jnp.asarray(centres_r), counts,
+                                        gaussian_kernel(blur), np.float32(s), _check_window(half_window))
     masks, found = object_masks(temporal, stereo, in_window, threshold, min_fraction, morphology)
     none = jnp.zeros((1, *masks.shape[1:]), bool)
     moved = np.concatenate([[False], np.abs(np.diff(centres_l, axis=0)).max(axis=1) >= min_motion])

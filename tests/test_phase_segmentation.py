@@ -236,3 +236,65 @@ def test_opencv_peer_finds_the_object_on_the_same_windows(scene):
     truth = _window_mask(mask, hand_l)
     assert not found[0] and found[1:].all()
     assert (masks & truth).sum() > 0.8 * masks.sum() and (masks & truth)[1:].sum() > 0.3 * truth[1:].sum()
+
+
+def _window_ref(image, centre, half):
+    """The (2 hh + 1, 2 hw + 1) window of image around centre, NaN outside the image."""
+    rows, cols = centre[0] + np.arange(-half[0], half[0] + 1), centre[1] + np.arange(-half[1], half[1] + 1)
+    ok_r, ok_c = (rows >= 0) & (rows < image.shape[0]), (cols >= 0) & (cols < image.shape[1])
+    out = np.full((len(rows), len(cols)), np.nan, np.float32)
+    out[np.ix_(ok_r, ok_c)] = image[np.ix_(rows[ok_r], cols[ok_c])]
+    return out
+
+
+@pytest.mark.parametrize("shape, blur, half", [((H, W), BLUR, HALF), ((H, W), 2.5, (6, 9)), ((5, 7), 2.0, (1, 2))])
+def test_crop_phase_equals_the_full_frame_phase_at_the_border_and_inside(shape, blur, half):
+    """`segment_objects` computes Psi only on crops around the windows (`hog_jax._phase.crop_phase`):
+    the windows of `gradient_phase` of the whole frame, NaN outside the image, for windows over a
+    corner, an edge, partly and wholly outside the image and near its centre; (5, 7) with a kernel
+    of radius 8 needs the symmetric padding reflected more than once."""
+    from hog_jax._phase import crop_phase, gaussian_kernel
+
+    image = gaussian_filter(np.random.default_rng(1).uniform(0, 255, shape), 0.7).astype(np.float32)
+    full = np.asarray(gradient_phase(image, blur))
+    (h, w), (ch, cw) = shape, (shape[0] // 2, shape[1] // 2)
+    centres = np.array([[0, 0], [2, w - 1], [h - 1, 3], [-3, cw], [h + 2, w + 1], [ch, cw], [ch + 1, cw - 1],
+                        [-40, -40]])
+    crops = jax.jit(lambda img, cs, k: jax.vmap(lambda c: crop_phase(img, c, half, k))(cs))(
+        image, centres.astype(np.int32), gaussian_kernel(blur))
+    want = np.stack([_window_ref(full, c, half) for c in centres])
+    crops = np.asarray(crops)
+    np.testing.assert_array_equal(np.isnan(crops), np.isnan(want))
+    assert np.isfinite(want[5]).all() and np.isnan(want[-1]).all()
+    np.testing.assert_allclose(np.nan_to_num(_wrap(crops - want)), 0.0, atol=1e-4)  # degrees: float32 round-off
+
+
+def test_segment_objects_cues_equal_the_full_frame_pieces_near_the_border(scene):
+    """The cues `segment_objects` computes from crops of 8-bit frames are those of
+    `temporal_log_ratio` and `stereo_log_ratio` on `gradient_phase` of the whole frames, for
+    windows over the image border (the right view's partly outside) and one inside."""
+    left, right, *_ = scene
+    u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
+    hand_l = np.array([[1, 2], [3, 5], [H - 2, W - 4], [H // 2, W // 2]])
+    hand_r = hand_l - np.array([0, DISPARITY_OBJ])
+    key = jax.random.key(5)
+    res = segment_objects(key, u8(left), u8(right), hand_l, hand_r, np.zeros(left.shape, bool), HALF, SIGMA, 10,
+                          blur_sigma=BLUR, n_samples=50)
+    psi_l, psi_r = gradient_phase(u8(left), BLUR), gradient_phase(u8(right), BLUR)
+    temporal = temporal_log_ratio(psi_l, hand_l, HALF, SIGMA)
+    stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], hand_l[1:], hand_r[1:], HALF, SIGMA, 10, 50)
+    for got, want in ((res.temporal, temporal), (res.stereo, stereo)):
+        np.testing.assert_array_equal(np.asarray(got.valid), np.asarray(want.valid))
+        np.testing.assert_allclose(np.asarray(got.log_ratio), np.asarray(want.log_ratio), atol=1e-5)
+    assert not np.asarray(res.stereo.valid)[0].all() and np.asarray(res.stereo.valid)[-1].all()
+
+
+def test_stereo_ratio_with_fewer_draws_than_offsets(scene):
+    """Eq. 4's mean over the draws, as counts over the 2 d + 1 offsets, also where most offsets are
+    never drawn (N = 4 < 21)."""
+    _, _, hand_l, hand_r, _, psi_l, psi_r = scene
+    key = jax.random.key(7)
+    got = stereo_log_ratio(key, psi_l, psi_r, hand_l, hand_r, HALF, SIGMA, max_offset=10, n_samples=4)
+    offsets = np.asarray(jax.random.randint(key, (4,), -10, 11))
+    want = _stereo_ref(psi_l.astype(np.float64), psi_r.astype(np.float64), hand_l, hand_r, offsets)
+    np.testing.assert_allclose(np.asarray(got.log_ratio), want, atol=2e-4)

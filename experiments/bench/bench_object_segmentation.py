@@ -8,11 +8,13 @@ Input, the same for both: grey uint8 stereo frames (T, H, W) of one clip of `exp
 (validation seed 1, so no test recording is looked at), the true right-hand centre in each view and
 the true skin pixels (the hand's pixels removed), a (2 h + 1)^2 window around the hand; frames where
 the hand is visible in both views. Output, the same for both: (T, h, w) masks and (T,) found flags on
-the host. Both compute their dense fields on the full frames (ours: the blurred phase of both views;
-the peer: SGBM disparity and DIS flow, OpenCV's per-frame calls on one core each, SGBM in its 3-way
-mode, DIS at its MEDIUM preset). Ours is one call for all frames (vmapped over frames), timed after a
-warm-up (compilation apart), median of `repeats`; the peer's loop needs no warm-up beyond its first
-frame, median of `repeats` passes. windows/s = (T - 1) / median seconds (frame 0 has no previous frame).
+the host. Ours computes the blurred phase only on crops around the windows its cues read (the
+values of the full frames'); the peer computes SGBM disparity and DIS flow on the full frames, as
+their API does (OpenCV's per-frame calls on one core each, SGBM in its 3-way mode, DIS at its MEDIUM
+preset; a peer on crops around the windows is not measured here). Ours is one call for all frames
+(vmapped over frames), timed after a warm-up (compilation apart), median of `repeats`; the peer's
+loop needs no warm-up beyond its first frame, median of `repeats` passes. windows/s = (T - 1) /
+median seconds (frame 0 has no previous frame).
 """
 from __future__ import annotations
 
