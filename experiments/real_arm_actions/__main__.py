@@ -1,0 +1,3 @@
+from experiments.real_arm_actions.stages import main
+
+main()

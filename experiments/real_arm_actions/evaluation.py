@@ -1,0 +1,136 @@
+"""Folds and their evaluation: every method trained on a fold's training persons (settings chosen on
+validation folds inside them), tested on its held-out persons, timed; the side PHMMs on the same
+folds.
+
+A fold is (training `Dataset`, test `Dataset`): leave-one-person-out over one folder's persons, or
+one fold of all persons of a training folder against all persons of a test folder (`--train`,
+`--test`). Accuracy per held-out person; the study's accuracy is their mean.
+"""
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+import phmm_jax as P
+from experiments.bench.timing import time_call
+from experiments.config import progress
+from experiments.real_arm_actions import methods as mt
+from experiments.real_arm_actions.config import METHODS
+from experiments.real_arm_actions.data import Dataset
+
+
+class MethodResult(NamedTuple):
+    """One method over all folds: predicted (B,) labels of the concatenated test sets, truth (B,),
+    test persons (B,), chosen settings and validation accuracies per fold, seconds spent."""
+
+    predicted: np.ndarray
+    truth: np.ndarray
+    person: np.ndarray
+    settings: list
+    validation: list
+    train_s: float
+    test_s: float
+    selection_s: float
+    train_s_per_fold: list
+
+    def per_person(self) -> dict[str, float]:
+        return {p: float(np.mean(self.predicted[self.person == p] == self.truth[self.person == p]))
+                for p in sorted(set(self.person.tolist()))}
+
+    @property
+    def accuracy(self) -> float:
+        """Mean over the held-out persons."""
+        return float(np.mean(list(self.per_person().values())))
+
+    def confusion(self) -> np.ndarray:
+        counts = np.zeros((mt.N_ACTIONS, mt.N_ACTIONS), int)
+        np.add.at(counts, (self.truth, self.predicted), 1)
+        return counts
+
+
+def leave_one_person_out(data: Dataset) -> list[tuple[Dataset, Dataset]]:
+    return [(data.subset(data.person != p), data.subset(data.person == p)) for p in data.persons]
+
+
+def _timed(fn, block: bool):
+    timing = time_call(fn, repeats=1, warmup=None, block=block)
+    return timing.result, timing.median_s
+
+
+def run_method(method: str, folds, cfg, rng: np.random.Generator) -> MethodResult:
+    """Select, train and test `method` on every fold; train/test times exclude the selection (JAX
+    compilation is inside the first folds' times: `train_s_per_fold` shows it)."""
+    predicted, truth, person, settings, validation, train_times = [], [], [], [], [], []
+    test_s = selection_s = 0.0
+    block = method in ("edhmm", "hmm")
+    for train, test in progress(folds, desc=f"{method} ({folds[0][0].kind})"):
+        t0 = time.perf_counter()
+        setting, scores = mt.select_setting(method, train.features, train.action, train.person, cfg, rng)
+        selection_s += time.perf_counter() - t0
+        X_train, X_test = mt.standardise(train.features, test.features)
+        model, seconds = _timed(lambda: mt.FIT[method](X_train, train.action, setting, cfg), block)
+        train_times.append(seconds)
+        labels, seconds = _timed(lambda: mt.PREDICT[method](model, X_test), block=False)
+        test_s += seconds
+        predicted.append(labels)
+        truth.append(test.action)
+        person.append(test.person)
+        settings.append(setting)
+        validation.append(scores)
+    return MethodResult(np.concatenate(predicted), np.concatenate(truth), np.concatenate(person), settings,
+                        validation, float(sum(train_times)), test_s, selection_s, train_times)
+
+
+class SideResult(NamedTuple):
+    """The side PHMMs over all folds: recognised action (B,), phi of the true action's PHMM (B,),
+    true action, side (0 left, 1 right) and person (B,); seconds training and recognising."""
+
+    action: np.ndarray
+    phi: np.ndarray
+    truth: np.ndarray
+    side: np.ndarray
+    person: np.ndarray
+    train_s: float
+    test_s: float
+
+    @property
+    def side_correct(self) -> np.ndarray:
+        return (self.phi > 0.5) == (self.side == 1)
+
+    def per_person(self, correct: np.ndarray) -> dict[str, float]:
+        return {p: float(np.mean(correct[self.person == p])) for p in sorted(set(self.person.tolist()))}
+
+
+def run_side_phmm(folds, settings: list, cfg) -> SideResult | None:
+    """Per fold and action a 1-D PHMM over the reach side (corner φ = 0: the left-arm trials, φ = 1:
+    the right-arm ones; synchronised local training, PHMM §III-B1) with the explicit-duration setting
+    the fold chose for `edhmm`; recognition (PHMM eq. 3) gives the action and φ; φ > 0.5 reads
+    "right". None when a training fold lacks one side of an action."""
+    out = {k: [] for k in ("action", "phi", "truth", "side", "person")}
+    train_s = test_s = 0.0
+    for (train, test), setting in zip(progress(folds, desc=f"side PHMMs ({folds[0][0].kind})"), settings):
+        X_train, X_test = mt.standardise(train.features, test.features)
+        config = mt.ed_config(setting, X_train.shape[1], cfg.duration_spread)
+        groups = [[X_train[(train.action == a) & (train.side == s)] for s in (0, 1)] for a in range(mt.N_ACTIONS)]
+        if any(len(g) == 0 for pair in groups for g in pair):
+            return None
+        options = P.FitOptions(max_iter=cfg.n_iter, reg_covar=cfg.reg_covar)
+        phmms, seconds = _timed(lambda: [P.fit_phmm(pair, (2,), config, options=options) for pair in groups], True)
+        train_s += seconds
+        rec, seconds = _timed(lambda: P.recognize(phmms, X_test, n_steps=cfg.recognition_steps), True)
+        test_s += seconds
+        phi = np.asarray(rec.phi)[np.arange(len(X_test)), test.action, 0]
+        for key, value in (("action", np.asarray(rec.label)), ("phi", phi), ("truth", test.action),
+                           ("side", test.side), ("person", test.person)):
+            out[key].append(value)
+    return SideResult(*(np.concatenate(out[k]) for k in ("action", "phi", "truth", "side", "person")),
+                      train_s, test_s)
+
+
+def evaluate(folds, cfg) -> tuple[dict[str, MethodResult], SideResult | None]:
+    """Every method of `METHODS` on `folds` (one generator per method, from the seed), then the side
+    PHMMs with the explicit-duration settings chosen for `edhmm`."""
+    results = {m: run_method(m, folds, cfg, np.random.default_rng([cfg.seed, k])) for k, m in enumerate(METHODS)}
+    return results, run_side_phmm(folds, results["edhmm"].settings, cfg)
