@@ -16,9 +16,15 @@ from hog_jax.tracks import FACE, HAND  # noqa: E402
 _AS_TRUTH = np.array([0, 0, 1, 2, 4], np.uint8)
 
 
+def truth_coded(labels) -> np.ndarray:
+    """Our labels (-1 none, 0 background, 1 person, 2 skin, 3 object) in the ground truth's code, the
+    one `experiments.data.video.overlay` colours (skin as hand skin)."""
+    return _AS_TRUTH[np.asarray(labels) + 1]
+
+
 def overlay_frames(rec, seg) -> np.ndarray:
     """(T, H, 2W, 3) uint8: the left view with the ground truth (left half) and our labels (right)."""
-    ours = _AS_TRUTH[np.asarray(seg.left.labels) + 1]
+    ours = truth_coded(seg.left.labels)
     return np.concatenate([overlay(rec.left, rec.left_labels), overlay(rec.left, ours)], axis=2)
 
 

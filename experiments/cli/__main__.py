@@ -1,0 +1,3 @@
+from experiments.cli.app import main
+
+raise SystemExit(main())
