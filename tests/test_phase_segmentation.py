@@ -224,18 +224,92 @@ def test_segment_objects_composes_the_pieces(scene):
     np.testing.assert_array_equal(np.asarray(still.masks), np.asarray(res.masks))
 
 
-def test_opencv_peer_finds_the_object_on_the_same_windows(scene):
-    """The issue-19 peer (StereoSGBM + DIS flow, the same selection as ours) on the synthetic pair:
-    its mask lies on the object (the scene's object is nearer and moves with the hand)."""
+@pytest.mark.parametrize("crop_margin", [None, 8])
+def test_opencv_peer_finds_the_object_on_the_same_windows(scene, crop_margin):
+    """The issue-19 peer (StereoSGBM + DIS flow, the same selection as ours) on the synthetic pair,
+    on the full frames and on crops: its mask lies on the object (the scene's object is nearer and
+    moves with the hand)."""
     from experiments.bench.object_peer import peer_object_masks
 
     left, right, hand_l, hand_r, mask, _, _ = scene
     u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
     hands = np.zeros(left.shape, bool)
-    masks, found = peer_object_masks(u8(left), u8(right), hand_l, hand_r, hands, HALF, num_disparities=16)
+    masks, found = peer_object_masks(u8(left), u8(right), hand_l, hand_r, hands, HALF, num_disparities=16,
+                                     crop_margin=crop_margin)
     truth = _window_mask(mask, hand_l)
     assert not found[0] and found[1:].all()
     assert (masks & truth).sum() > 0.8 * masks.sum() and (masks & truth)[1:].sum() > 0.3 * truth[1:].sum()
+
+
+class _LocalSGBM:
+    """StereoSGBM's interface with a known support: the object's disparity where the block means of
+    the left view at x and of the right view at x - (n - 1) are bright together, invalid in the
+    first n columns (as OpenCV), zero outside the input."""
+
+    def __init__(self, n: int, block: int):
+        self.n, self.block = n, block
+
+    def compute(self, left, right):
+        mean = lambda a: ndimage.uniform_filter(a.astype(float), self.block, mode="constant")
+        shifted = np.zeros(right.shape)
+        shifted[:, self.n - 1:] = mean(right)[:, :max(right.shape[1] - self.n + 1, 0)]
+        out = np.where(mean(left) + shifted > 256, 16 * DISPARITY_OBJ, 0).astype(np.int16)
+        out[:, :self.n] = -16
+        return out
+
+
+class _LocalDIS:
+    """DISOpticalFlow's interface with a known support (radius px): back along the hand's motion
+    (the next of `motions`, (rows, columns)) where the two frames' local means are bright together."""
+
+    def __init__(self, radius: int, motions):
+        self.radius, self.motions = radius, iter(motions)
+
+    def calc(self, now, before, _):
+        mean = lambda a: ndimage.uniform_filter(a.astype(float), 2 * self.radius + 1, mode="constant")
+        dr, dc = next(self.motions)
+        bright = (mean(now) + mean(before) > 256)[..., None]
+        return np.where(bright, np.array([-dc, -dr], np.float32), np.float32(5.0))
+
+
+def test_opencv_peer_on_crops_equals_the_full_frames_where_the_fields_are_local(scene, monkeypatch):
+    """With SGBM and DIS replaced by stand-ins whose outputs depend on a known neighbourhood (the
+    block, the disparity range, the flow's radius = crop_margin), the peer on crops equals the peer
+    on the full frames exactly, for windows inside and over the image border: the crops hold the
+    fields' whole support and their windows are read at the right offsets."""
+    from experiments.bench import object_peer
+
+    left, right, *_ = scene
+    u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
+    hand_l = np.array([[20, 24], [H // 2, W - 12], [1, 2], [H - 2, W // 2], [H // 2 + 3, W // 2 + 5]])
+    hand_r = hand_l - np.array([0, DISPARITY_OBJ])
+    frames = [u8(np.resize(v, (len(hand_l), H, W))) for v in (left, right)]
+    hands = np.zeros(frames[0].shape, bool)
+    radius = 6
+    monkeypatch.setattr(object_peer.cv2, "StereoSGBM_create",
+                        lambda **kw: _LocalSGBM(kw["numDisparities"], kw["blockSize"]))
+    monkeypatch.setattr(object_peer.cv2, "DISOpticalFlow_create", lambda _: _LocalDIS(radius, np.diff(hand_l, axis=0)))
+    run = lambda margin: object_peer.peer_object_masks(*frames, hand_l, hand_r, hands, HALF, num_disparities=16,
+                                                       crop_margin=margin)
+    (full, found_full), (cropped, found) = run(None), run(radius)
+    np.testing.assert_array_equal(cropped, full)
+    np.testing.assert_array_equal(found, found_full)
+    assert found_full.sum() >= 2 and full.any()
+
+
+def test_opencv_peer_on_crops_runs_on_windows_over_the_border(scene):
+    """Crops clipped by the image border are grown to what OpenCV accepts (SGBM fails on no more
+    columns than disparities, DIS on short wide images): masks and flags, no crash."""
+    from experiments.bench.object_peer import peer_object_masks
+
+    left, right, *_ = scene
+    u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
+    hand_l = np.array([[20, 24], [1, 2], [H - 1, W - 1], [0, W - 3]])
+    for half in (HALF, (3, 20)):  # (3, 20): DIS on a crop of 5 x 41 px would crash
+        masks, found = peer_object_masks(u8(left), u8(right), hand_l, hand_l, np.zeros(left.shape, bool), half,
+                                         num_disparities=16, crop_margin=0)
+        assert masks.shape == (len(hand_l), 2 * half[0] + 1, 2 * half[1] + 1) and found.shape == (len(hand_l),)
+        assert not found[0]
 
 
 def _window_ref(image, centre, half):
