@@ -25,7 +25,7 @@ Training (options: FitOptions(max_iter, tol, reg_covar, duration_pseudocount, fr
 
 Parametric HMMs
     phmm_log_likelihood(phmm, X, phi, lengths) -> (B,), differentiable in phi
-    recognize(phmms, X, lengths, epsilon=0.1, n_steps=20, lattice_points=5)  -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
+    recognize(phmms, X, lengths, epsilon=0.1, n_steps=6, lattice_points=5, face_steps=3) -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
     synthesize(phmm, phi, length=100)          -> (length, D) mean movement
     target_to_phi(corner_targets, targets)     -> (M, d) interpolation parameters of target points
 
@@ -38,7 +38,7 @@ Persistence
 
 Errors and edge cases
     Every public function raises `ValueError` whose message starts with the argument's name for a
-    wrong type, shape or value (NaN/inf, lengths no path fits, n_steps < 1, learning_rate <= 0, an
+    wrong type, shape or value (NaN/inf, lengths no path fits, n_steps < 1, face_steps < 0, an
     empty or non-tuple grid_shape) and for finite values that would overflow the compute dtype
     inside (data ~1e20 from the means in float32, φ = 1e30, epsilon = 1e30). Fits never return NaN:
     `reg_covar` floors every variance (default 1e-4); with reg_covar=0 a singular covariance raises

@@ -18,7 +18,6 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log
@@ -53,12 +52,6 @@ class PHMM:
     def corner(self, index: tuple[int, ...]) -> HMM:
         flat = int(np.ravel_multi_index(index, self.grid_shape))
         return jax.tree_util.tree_map(lambda a: a[flat], self.local)
-
-    def outer(self) -> "PHMM":
-        """The PHMM of the 2^d outermost corners only (the coarse model of the hierarchical search)."""
-        picks = [int(np.ravel_multi_index(c, self.grid_shape)) for c in
-                 itertools.product(*[(0, g - 1) for g in self.grid_shape])]
-        return PHMM(jax.tree_util.tree_map(lambda a: a[np.array(picks)], self.local), (2,) * self.n_params)
 
 
 def grid_points(grid_shape: tuple[int, ...]) -> Float[np.ndarray, "C d"]:
@@ -223,58 +216,148 @@ def _start_lattice(n_params: int, points: int) -> jnp.ndarray:
     return jnp.asarray(np.stack(np.meshgrid(*[axis] * n_params, indexing="ij"), -1).reshape(-1, n_params))
 
 
-@partial(jax.jit, static_argnames=("n_steps", "lattice_points", "refine"))
-def _search(phmm: PHMM, coarse: PHMM, X, lengths, epsilon, learning_rate, n_steps: int, lattice_points: int,
-            refine: bool):
-    """φ* for every sequence: best point of a coarse lattice under `coarse`, projected Adam ascent
-    under `coarse`, then (`refine`) under the full grid (`phmm`) from there. Returns (φ (B, d), loglik (B,)).
+def _solve_spd(matrix, rhs):
+    """x with M x = r for symmetric positive-definite M (..., d, d) and r (..., d), by a Cholesky
+    factorisation unrolled over the static, small d (elementwise over the batch): no LAPACK call, so
+    none of the batched custom calls that deadlock XLA:CPU (README, Known problems)."""
+    d = matrix.shape[-1]
+    low = [[None] * d for _ in range(d)]
+    for j in range(d):
+        low[j][j] = jnp.sqrt(matrix[..., j, j] - sum(low[j][k] ** 2 for k in range(j)))
+        for i in range(j + 1, d):
+            low[i][j] = (matrix[..., i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[j][j]
+    y = []
+    for i in range(d):
+        y.append((rhs[..., i] - sum(low[i][k] * y[k] for k in range(i))) / low[i][i])
+    x = [None] * d
+    for i in reversed(range(d)):
+        x[i] = (y[i] - sum(low[k][i] * x[k] for k in range(i + 1, d))) / low[i][i]
+    return jnp.stack(x, axis=-1)
 
-    The batch is optimised as one objective, the sum of per-frame log-likelihoods: sequence b's term
-    depends on φ_b only and Adam's update is elementwise, so every sequence follows its own ascent."""
-    lattice = _start_lattice(phmm.n_params, lattice_points)  # (M, d)
+
+def _newton_direction(grad, hess, phi, lower, upper, damping):
+    """The damped Newton (Levenberg-Marquardt) ascent step δ (B, d) of every sequence: (A + s I) δ = g
+    with A = −H on the free coordinates, s the damping (relative to A's largest diagonal entry) plus
+    a Gershgorin shift that makes the matrix positive definite where H is not negative definite.
+    Coordinates on a face of the box whose gradient points outwards are held (projected Newton)."""
+    d = grad.shape[-1]
+    free = ~(((phi <= lower) & (grad < 0)) | ((phi >= upper) & (grad > 0)))  # (B, d)
+    eye = jnp.eye(d, dtype=grad.dtype)
+    both = free[:, :, None] & free[:, None, :]
+    a = jnp.where(both, -0.5 * (hess + jnp.swapaxes(hess, 1, 2)), 0.0)
+    a = jnp.where(eye > 0, jnp.where(free[:, :, None], a, 1.0), a)
+    diag = jnp.diagonal(a, axis1=1, axis2=2)
+    radius = jnp.sum(jnp.abs(a), axis=2) - jnp.abs(diag)
+    scale = jnp.max(jnp.abs(diag), axis=1) + jnp.finfo(grad.dtype).tiny
+    shift = jnp.maximum(0.0, jnp.max(radius - diag, axis=1)) + damping * scale + 1e-6 * scale
+    return _solve_spd(a + shift[:, None, None] * eye, jnp.where(free, grad, 0.0))
+
+
+def _secant_update(hess, s, y):
+    """BFGS update (B, d, d) of the Hessian H of a maximisation from steps s (B, d) and gradient
+    changes y (B, d); skipped per sequence where the curvature condition fails."""
+    a = -hess
+    a_s = jnp.einsum("bij,bj->bi", a, s)
+    s_a_s = jnp.sum(s * a_s, axis=1)
+    y_s = -jnp.sum(y * s, axis=1)
+    ok = (y_s > 1e-12 * jnp.sqrt(jnp.sum(s * s, 1) * jnp.sum(y * y, 1))) & (s_a_s > 0)
+    update = y[:, :, None] * y[:, None, :] / jnp.where(ok, y_s, 1.0)[:, None, None] \
+        - a_s[:, :, None] * a_s[:, None, :] / jnp.where(ok, s_a_s, 1.0)[:, None, None]
+    return -(a + jnp.where(ok[:, None, None], update, 0.0))
+
+
+_FACE_MARGIN = 0.15  # how near a face of [0, 1]^d the face probe of `_search` looks
+
+
+@partial(jax.jit, static_argnames=("n_steps", "lattice_points", "face_steps"))
+def _search(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points: int, face_steps: int):
+    """φ* for every sequence (PHMM eq. 3): the best point of a `lattice_points`^d lattice under the
+    full model, `n_steps` damped, projected quasi-Newton steps from there (exact Hessian at the start,
+    BFGS updates after, a step kept only where it raises the likelihood), then a probe across the
+    nearest faces of [0, 1]^d and `face_steps` more steps. Returns (φ (B, d), loglik (B,)).
+
+    Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
+    sequence's gradient, and one reverse pass of that gradient along coordinate k gives row k of
+    every sequence's d x d Hessian at once."""
+    d = phmm.n_params
+    lower, upper = -epsilon, 1.0 + epsilon
+    lattice = _start_lattice(d, lattice_points)  # (M, d)
 
     def at_point(phi):  # every sequence scored under one interpolated model (no per-sequence models)
-        hmm = interpolate(coarse, phi)
+        hmm = interpolate(phmm, phi)
         return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
 
     scores = jax.vmap(at_point)(lattice)  # (M, B)
-    schedule = optax.cosine_decay_schedule(learning_rate, n_steps)
-    opt = optax.adam(schedule)
 
-    def ascend(model, phi0):
-        objective = lambda phi: -jnp.sum(batch_phmm_log_likelihood(model, X, lengths, phi) / lengths)  # noqa: E731
+    def gradient(phi):
+        loglik, pullback = jax.vjp(lambda p: batch_phmm_log_likelihood(phmm, X, lengths, p), phi)
+        return pullback(jnp.ones_like(loglik))[0], loglik
 
-        def step(carry, _):
-            phi, state = carry
-            grad = jax.grad(objective)(phi)
-            updates, state = opt.update(grad, state, phi)
-            phi = jnp.clip(optax.apply_updates(phi, updates), -epsilon, 1.0 + epsilon)
-            return (phi, state), None
+    def with_hessian(phi):  # log-likelihood (B,), gradient (B, d), Hessian (B, d, d)
+        grad, pullback, loglik = jax.vjp(gradient, phi, has_aux=True)
+        basis = jnp.broadcast_to(jnp.eye(d, dtype=phi.dtype)[:, None, :], (d,) + phi.shape)
+        rows = jax.vmap(lambda e: pullback(e)[0])(basis)  # (d, B, d): rows[k, b] = ∂g_bk/∂φ_b
+        return loglik, grad, jnp.swapaxes(rows, 0, 1)
 
-        (phi, _), _ = jax.lax.scan(step, (phi0, opt.init(phi0)), None, length=n_steps)
-        return phi
+    def step(carry, _):
+        phi, loglik, grad, hess, damping = carry
+        candidate = jnp.clip(phi + _newton_direction(grad, hess, phi, lower, upper, damping), lower, upper)
+        c_grad, c_loglik = gradient(candidate)
+        c_hess = _secant_update(hess, candidate - phi, c_grad - grad)
+        better = jnp.isfinite(c_loglik) & (c_loglik > loglik) & jnp.all(jnp.isfinite(c_grad), axis=1)
+        pick = lambda new, old: jnp.where(better.reshape((-1,) + (1,) * (new.ndim - 1)), new, old)  # noqa: E731
+        # A rejected step still tells the secant model about the curvature along it.
+        hess = jnp.where(jnp.all(jnp.isfinite(c_hess), axis=(1, 2))[:, None, None], c_hess, hess)
+        damping = jnp.where(better, jnp.maximum(damping * 0.1, 1e-8), damping * 10.0)
+        return (pick(candidate, phi), pick(c_loglik, loglik), pick(c_grad, grad), hess, damping), None
 
-    phi = ascend(coarse, lattice[jnp.argmax(scores, axis=0)])
-    if refine:
-        phi = ascend(phmm, phi)
-    return phi, batch_phmm_log_likelihood(phmm, X, lengths, phi)
+    def ascend(init, steps):
+        (phi, loglik, *_), _ = jax.lax.scan(step, init, None, length=steps)
+        return phi, loglik
+
+    start = lattice[jnp.argmax(scores, axis=0)]
+    damping = jnp.full(start.shape[0], 1e-3, start.dtype)
+    phi, loglik = ascend((start, *with_hessian(start), damping), n_steps)
+    if face_steps > 0:
+        # Covariances and durations stop changing at the faces of [0, 1]^d while the means go on, so
+        # the likelihood has a kink there and often a second maximum just across it. Probe the
+        # mirror image across the nearest face of every coordinate near one (one at a time and all
+        # together), restart from the best of these where it beats φ, and climb again.
+        face = jnp.where(phi < 0.5, 0.0, 1.0)
+        offset = phi - face
+        near = jnp.abs(offset) < _FACE_MARGIN
+        mirror = face - jnp.where(offset >= 0, 1.0, -1.0) * jnp.maximum(jnp.abs(offset), 0.5 * _FACE_MARGIN)
+        masks = jnp.concatenate([jnp.eye(d, dtype=bool), jnp.ones((1, d), bool)])  # (d + 1, d)
+        probes = jnp.clip(jnp.where(masks[:, None, :] & near[None], mirror[None], phi[None]), lower, upper)
+        tiled = lambda a: jnp.tile(a, (d + 1,) + (1,) * (a.ndim - 1))  # noqa: E731
+        probe_values = batch_phmm_log_likelihood(phmm, tiled(X), tiled(lengths), probes.reshape(-1, d)).reshape(d + 1, -1)
+        probe_values = jnp.where(jnp.isfinite(probe_values), probe_values, -jnp.inf)
+        take = jnp.max(probe_values, axis=0) > loglik
+        restart = jnp.where(take[:, None], probes[jnp.argmax(probe_values, axis=0), jnp.arange(phi.shape[0])], phi)
+        phi2, loglik2 = ascend((restart, *with_hessian(restart), damping), face_steps)
+        better = loglik2 > loglik
+        phi, loglik = jnp.where(better[:, None], phi2, phi), jnp.where(better, loglik2, loglik)
+    return phi, loglik
 
 
 def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
-              n_steps: int = 20, learning_rate: float = 0.05, lattice_points: int = 5) -> Recognition:
+              n_steps: int = 6, lattice_points: int = 5, face_steps: int = 3) -> Recognition:
     """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
 
-    For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ) by projected gradient ascent
-    (jax.grad + optax Adam), hierarchically: first the PHMM of the outermost corners from the best of
-    a `lattice_points`^d lattice, then the full grid from that estimate. The label is the k with
-    the highest log-likelihood at its φ_k. Batched over sequences with vmap.
+    For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ), from the best point of a
+    `lattice_points`^d lattice by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
+    by automatic differentiation at the start, BFGS updates after; a step is kept only where it
+    raises the likelihood, so the result is never worse than the lattice), then a probe across the
+    nearest faces of [0, 1]^d, where interpolated covariances and durations stop and the means go on
+    (a kink, often with a second maximum just across), and `face_steps` more steps (0: no probe).
+    The label is the k with the highest log-likelihood at its φ_k. Batched over sequences.
     phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
-    Defaults: a lattice point scores all sequences under one model (cheap), a gradient step needs one
-    model per sequence (dear), so the start is a fine 5^d lattice and the ascent short (20 steps);
-    how close that comes to a long search is measured by `experiments.bench.bench_hmm`.
-    Raises `ValueError` naming the argument for anything else: n_steps < 1, a learning rate that is
-    not a positive finite number, a negative epsilon, models that are not PHMMs, and data (or an
-    epsilon) so far from a model's means that the search would overflow the compute dtype.
+    Defaults: a lattice point scores all sequences under one model (cheap), a step needs one model
+    per sequence (dear); how close the defaults come to a dense scan plus a long refinement is
+    measured by `experiments.bench.bench_hmm` (`search_within_1_nat`).
+    Raises `ValueError` naming the argument for anything else: n_steps < 1, face_steps < 0,
+    lattice_points < 1, a negative epsilon, models that are not PHMMs, and data (or an epsilon) so
+    far from a model's means that the search would overflow the compute dtype.
     """
     if isinstance(phmms, PHMM):
         phmms = [phmms]
@@ -288,7 +371,7 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         check_type(phmm, f"phmms[{k}]", PHMM)
     epsilon = check_real(epsilon, "epsilon", min_value=0.0)
     n_steps = check_int(n_steps, "n_steps", min_value=1)
-    learning_rate = check_real(learning_rate, "learning_rate", min_value=0.0, exclusive_min=True)
+    face_steps = check_int(face_steps, "face_steps", min_value=0)
     lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
     X, lengths = pad_sequences(X, lengths, dim=phmms[0].local.dim)
     for k, phmm in enumerate(phmms):
@@ -298,9 +381,7 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         reach = extrapolation_factor(phmm.grid_shape, np.full((1, phmm.n_params), -epsilon))
         check_phmm_distances(phmm, X, lengths, reach, f"phmms[{k}]", "epsilon")
     X, lengths = to_device(X, lengths)
-    # A grid of 2 points per parameter is its own outermost-corner model: nothing to refine.
-    results = [_search(p, p.outer(), X, lengths, epsilon, learning_rate, n_steps, lattice_points,
-                       refine=any(g > 2 for g in p.grid_shape)) for p in phmms]
+    results = [_search(p, X, lengths, epsilon, n_steps, lattice_points, face_steps) for p in phmms]
     phi = jnp.stack([r[0] for r in results], axis=1)
     loglik = jnp.stack([r[1] for r in results], axis=1)
     return Recognition(jnp.argmax(loglik, axis=1), phi, loglik)

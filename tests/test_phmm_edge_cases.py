@@ -91,13 +91,13 @@ def test_issue17_case2_values_that_overflow_inside_are_rejected(issue17):
 
 def test_issue17_case3_recognize_rejects_bad_steps(issue17):
     _, G, _, _, _, ph = issue17
-    bad = {"n_steps": (0, -1, 2.0), "learning_rate": (float("nan"), -1.0, 0.0, float("inf"), "0.1"),
+    bad = {"n_steps": (0, -1, 2.0), "face_steps": (-1, 2.0, "1"),
            "epsilon": (-0.1, float("nan")), "lattice_points": (0,)}
     for name, values in bad.items():
         for value in values:
             with pytest.raises(ValueError, match=f"^{name}:"):
                 P.recognize(ph, G[0], **{name: value})
-    rec = P.recognize(ph, G[0], n_steps=1, learning_rate=1e-3, lattice_points=1)
+    rec = P.recognize(ph, G[0], n_steps=1, face_steps=0, lattice_points=1)
     chex.assert_shape((rec.label, rec.phi, rec.loglik), [(2,), (2, 1, 1), (2, 1)])
     assert np.all(np.isfinite(np.asarray(rec.phi))) and np.all(np.isfinite(np.asarray(rec.loglik)))
 

@@ -10,7 +10,7 @@ import optax
 import pytest
 
 import phmm_jax as P
-from lfd_common import save_arrays
+from lfd_common import pad_sequences, save_arrays
 from phmm_jax.em import em_step
 from phmm_jax.parametric import batch_phmm_log_likelihood
 from phmm_jax.synthesis import hermite_spline, multilinear_map
@@ -134,6 +134,46 @@ def test_recognize_finds_class_and_parameter(walk_phmm):
     np.testing.assert_allclose(rec.phi[:3, 0, 0], true_phi, atol=0.08)
     with pytest.raises(ValueError, match="phi: expected 1 parameter"):
         P.phmm_log_likelihood(phmm, tests[0], [0.5, 0.5])
+
+
+def test_recognize_reaches_the_maximum_of_a_dense_scan():
+    """d = 2: the search's φ scores within 1 nat of the best of a 41 x 41 scan of [−ε, 1 + ε]² (issue 21's
+    criterion), and its reported log-likelihood is the model's at that φ."""
+    rng = np.random.default_rng(5)
+
+    def walks(phi, n):  # out to (3 + φ₂, 3 φ₁) and back, time-warped
+        seqs = []
+        for _ in range(n):
+            u = np.linspace(0, 1, int(rng.integers(30, 40)))
+            phase = u + 0.1 * np.sin(2 * np.pi * u) * rng.uniform(-1, 1)
+            out = np.sin(np.pi * phase)[:, None] * np.array([3.0 + phi[1], 3.0 * phi[0]])
+            seqs.append(out + 0.1 * rng.normal(size=out.shape))
+        return seqs
+
+    phmm = P.fit_phmm([walks(c, 6) for c in P.grid_points((2, 2))], (2, 2),
+                      P.HMMConfig(n_states=6, min_duration=3, max_duration=7), options=P.FitOptions(max_iter=10))
+    tests = [w for phi in rng.uniform(-0.05, 1.05, (6, 2)) for w in walks(phi, 1)]
+    rec = P.recognize(phmm, tests)
+    axis = np.linspace(-0.1, 1.1, 41)
+    grid = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
+    X, lengths = pad_sequences(tests, None, dim=2)
+    B, M = len(tests), len(grid)
+    scan = np.asarray(batch_phmm_log_likelihood(phmm, jnp.tile(jnp.asarray(X, jnp.float32), (M, 1, 1)),
+                                                jnp.tile(jnp.asarray(lengths), M),
+                                                jnp.asarray(np.repeat(grid, B, 0), jnp.float32))).reshape(M, B).max(0)
+    assert np.all(np.asarray(rec.loglik[:, 0]) >= scan - 1.0), np.asarray(rec.loglik[:, 0]) - scan
+    np.testing.assert_allclose(rec.loglik[:, 0], P.phmm_log_likelihood(phmm, tests, rec.phi[:, 0]), rtol=1e-5)
+
+
+def test_solve_spd_matches_numpy():
+    from phmm_jax.parametric import _solve_spd
+    rng = np.random.default_rng(6)
+    for d in (1, 2, 3):
+        a = rng.normal(size=(5, d, d))
+        m = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(d)
+        r = rng.normal(size=(5, d))
+        np.testing.assert_allclose(np.asarray(_solve_spd(jnp.asarray(m), jnp.asarray(r))),
+                                   np.linalg.solve(m, r[..., None])[..., 0], rtol=1e-4, atol=1e-5)
 
 
 def test_fit_phmm_rejects_a_missing_corner():

@@ -50,3 +50,35 @@ if locked.any():
         d = densities[t][:, locked].mean(axis=1)
         print(f"frame {t}: moving {moving[t][locked].mean():.2f}, log-density background GMM {d[0]:.2f}, "
               f"person {d[1]:.2f}, skin {d[2]:.2f}")
+    # Replay the background model of `_segment_one` from the labels (the hold rule is a function of the
+    # previous frame's labels and this frame's colours) to read the pixel's own-mixture density and the
+    # background score the level sets saw.
+    from hog_jax import background_kernel as bgk
+    from hog_jax.background import BackgroundStructure, check_options
+    from hog_jax.video import _person_coloured
+    from hog_jax.video import follow_light as hog_jax_follow
+    bo = check_options(options.background)
+    H, W = labels.shape[1:]
+    xs = np.moveaxis(left[:T].reshape(T, H * W, 3), 2, 1).astype(np.float32)
+    state = bgk.pixels_last(bgk.init_state(jnp.asarray(left[0]), BackgroundStructure().n_components, bo))
+    held = np.zeros(H * W, bool)
+    step = jax.jit(lambda s, x, learn: bgk.step_pixels_last(*s, x, learn, bo))
+    own_log = jax.jit(lambda s, x: bgk.log_density_pixels_last(*s, x))
+    watch = {T - 60, T - 30, T - 1}
+    flat_locked = locked.reshape(-1)
+    for t in range(T):
+        x = jnp.asarray(xs[t])
+        if t >= start:
+            held = (labels[t - 1].reshape(-1) != 0) & np.asarray(_person_coloured(densities[t])).reshape(-1)
+        if t in watch:
+            own = np.asarray(own_log(state, x))[flat_locked]
+            bg = np.logaddexp(densities[t][0].reshape(-1)[flat_locked], own) - np.log(2.0)
+            print(f"frame {t}: own-mixture log-density median {np.median(own):.2f} (10 % {np.percentile(own, 10):.2f}), "
+                  f"background score median {np.median(bg):.2f}, held {held[flat_locked].mean():.2f}")
+        before = state[1]
+        w, mu, var, fg = step(state, x, jnp.asarray(~held))
+        if t >= start:
+            mu = hog_jax_follow(before, mu, x, jnp.asarray(~held) & ~fg, jnp.asarray(held))
+        state = (w, mu, var)
+        if t < start:
+            held = np.asarray(fg)
