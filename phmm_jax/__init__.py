@@ -27,6 +27,8 @@ Parametric HMMs
     phmm_log_likelihood(phmm, X, phi, lengths) -> (B,), differentiable in phi
     recognize(phmms, X, lengths, epsilon=0.1, n_steps=6, lattice_points=5, face_steps=3) -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
     synthesize(phmm, phi, length=100)          -> (length, D) mean movement
+    with_observation_noise(model, variance)    -> the HMM / PHMM of x = y + N(0, variance I): Σ + variance I
+    estimate_noise_variance(X, lengths)        -> σ² of white noise, from the sequences' second differences
     target_to_phi(corner_targets, targets)     -> (M, d) interpolation parameters of target points
 
 Retargeting to a robot arm (Humanoids 2008 §IV-B, eqs. 10-24)
@@ -49,6 +51,7 @@ from phmm_jax.em import fit_hmm
 from phmm_jax.gradfit import fit_hmm_gradient
 from phmm_jax.io import PHMMStructure, load, save
 from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
+from phmm_jax.noise import estimate_noise_variance, with_observation_noise
 from phmm_jax.options import FitOptions
 from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
 from phmm_jax.retarget import MARKER_ORDER, ArmAngles, ArmSolution, retarget, solve_arm
@@ -57,7 +60,7 @@ from phmm_jax.synthesis import synthesize, target_to_phi
 __all__ = [
     "ArmAngles", "ArmSolution", "FitOptions", "HMM", "MARKER_ORDER", "Messages", "PHMM", "PHMMStructure", "DenseHMM",
     "HMMConfig", "Posteriors", "Recognition",
-    "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
+    "estimate_noise_variance", "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
     "interpolate", "load", "log_likelihood", "messages", "phmm_log_likelihood", "posteriors",
-    "recognize", "retarget", "save", "solve_arm", "synthesize", "target_to_phi", "viterbi",
+    "recognize", "retarget", "save", "solve_arm", "synthesize", "target_to_phi", "viterbi", "with_observation_noise",
 ]

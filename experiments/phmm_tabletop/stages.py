@@ -77,6 +77,7 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
     rng = np.random.default_rng(cfg.seed + 1)
     test = d.test
     rate, err, labels, hmm_rate, hmm_correct = {g: {} for g in GRIDS}, {g: {} for g in GRIDS}, {}, {}, {}
+    aware_rate, aware_err, sigma_estimate = {}, {}, {}
     for sigma in progress(cfg.noise_cm, desc="noise levels"):
         X = d.X_test + (sigma / 100) * rng.standard_normal(d.X_test.shape) if sigma > 0 else d.X_test
         for grid in GRIDS:
@@ -87,6 +88,13 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
                                               axis=-1) * 100
             rate[grid][sigma] = np.mean(label == test.action)
             labels[grid, sigma] = label
+        # The 3x3 PHMMs with the noise term Σ + σ̂² I, σ̂² read off the test movements (phmm_jax.noise).
+        variance = P.estimate_noise_variance(X)
+        sigma_estimate[sigma] = 100 * np.sqrt(variance)
+        r = P.recognize([P.with_observation_noise(m, variance) for m in models["3x3"]], X, n_steps=cfg.recognition_steps)
+        phi_true = np.asarray(r.phi)[np.arange(len(X)), test.action]
+        aware_err[sigma] = np.linalg.norm(ms.phi_to_position(d.corner_targets, phi_true) - test.target, axis=-1) * 100
+        aware_rate[sigma] = np.mean(np.asarray(r.label) == test.action)
         ll = np.stack([np.asarray(P.log_likelihood(h, X)) for h in models["hmm"]], axis=1)
         hmm_correct[sigma] = np.argmax(ll, 1) == test.action
         hmm_rate[sigma] = float(np.mean(hmm_correct[sigma]))
@@ -100,13 +108,16 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
         "param_error_cm": {"inner": float(err0["3x3"][inner_seq].mean()), "all": float(err0["3x3"].mean()),
                            "inner_2x2": float(err0["2x2"][inner_seq].mean()), "all_2x2": float(err0["2x2"].mean()),
                            "noise": noise({s: e.mean() for s, e in err["3x3"].items()}),
-                           "noise_2x2": noise({s: e.mean() for s, e in err["2x2"].items()})},
+                           "noise_2x2": noise({s: e.mean() for s, e in err["2x2"].items()}),
+                           "noise_aware": noise({s: e.mean() for s, e in aware_err.items()})},
+        "noise_sigma_estimate_cm": noise(sigma_estimate),
         "classification_rate": {
             "phmm_2x2": float(rate["2x2"][0.0]), "phmm_3x3": float(rate["3x3"][0.0]), "hmm": hmm_rate[0.0],
             **{f"{name}_{a}": float(np.mean(c[test.action == k])) for name, c in correct.items()
                for k, a in enumerate(tt.ACTIONS)},
             "diagnostic_baseline": ms.diagnostic_baseline(d.train, test),
-            "noise": noise(rate["3x3"]), "noise_2x2": noise(rate["2x2"]), "noise_hmm": noise(hmm_rate)},
+            "noise": noise(rate["3x3"]), "noise_2x2": noise(rate["2x2"]), "noise_hmm": noise(hmm_rate),
+            "noise_aware": noise(aware_rate)},
     }
     n_pos, shape = d.n_positions, (cfg.test_rows, cfg.test_cols)
     per_pos = {g: np.bincount(d.pos_index, err0[g], n_pos) / np.bincount(d.pos_index, minlength=n_pos)
@@ -119,8 +130,10 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
                                                 "Parameter (table position) error per test position"),
         "classification_error_maps.png": plots.plot_maps(
             wrong, shape, "Misclassified test movements per position (noise-free)", unit="%"),
-        "noise_robustness.png": plots.plot_noise(cfg.noise_cm, {g: {s: e.mean() for s, e in err[g].items()}
-                                                                for g in GRIDS}, rate, hmm_rate),
+        "noise_robustness.png": plots.plot_noise(
+            cfg.noise_cm, {**{g: {s: e.mean() for s, e in err[g].items()} for g in GRIDS},
+                           "3x3, Σ + σ̂² I": {s: e.mean() for s, e in aware_err.items()}},
+            {**rate, "3x3, Σ + σ̂² I": aware_rate}, hmm_rate),
     }
     return StageResult(metrics, figures)
 
