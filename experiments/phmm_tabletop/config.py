@@ -39,7 +39,7 @@ class Config:
 
 PRESETS = {
     "quick": {"train_repetitions": 4, "test_repetitions": 1, "n_iter": 10, "average_states": 40,
-              "noise_cm": (0.0, 10.0), "recognition_steps": 20},
+              "noise_cm": (0.0, 10.0), "recognition_steps": 6},
     "paper": {},
 }
 PAPER = {"synthesis_error_cm_inner": 1.8, "param_error_cm": 2.0, "rate_2x2": 0.94, "rate_3x3": 0.93, "rate_hmm": 0.85}
