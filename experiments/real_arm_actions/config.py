@@ -30,7 +30,7 @@ class Config:
     n_iter: int = 30
     n_validation_folds: int = 2    # inner leave-one-person-out folds that choose the HMM settings
     max_gap_s: float = 0.2         # marker gaps filled up to this length
-    recognition_steps: int = 20    # gradient steps of the side PHMM's recognition
+    recognition_steps: int = 20    # quasi-Newton steps of the side PHMM's recognition
 
     def __post_init__(self):
         for name in ("n_frames", "n_iter", "n_validation_folds", "recognition_steps"):
