@@ -283,19 +283,43 @@ class ObjectSegmentation(NamedTuple):
     stereo: LogRatio
 
 
+_CHUNK = 10  # frames per step of `_in_chunks` (10 and 13 were fastest of 1-26 on 130 frames, 2 CPU cores)
+
+
+def _in_chunks(fn, *xs):
+    """vmap(fn)(*xs) over the leading axis (T) of every x (T, ...), `_CHUNK` frames at a time
+    (`lax.map`). Why: eq. 4's samples (h, 2 d + 1, w) of all T frames at once are tens of MB (36 MB
+    for 130 frames of 41 x 41 windows, d = 20), which XLA:CPU writes to fresh memory several times
+    (the stacked shifts, the samples, the masked samples); a chunk's stay in cache (eq. 4 about 4x
+    faster on those 130 frames). The frames are padded with copies of the last one to whole chunks,
+    so that every step has the same shape and XLA the same kernels: a frame's values do not depend
+    on T (tests), and on the bench's clip they equal those of one vmap over all frames bit for bit
+    (which for T <= 2 frames picks other kernels, last bits apart)."""
+    T = xs[0].shape[0]
+    n = -(-T // _CHUNK)
+
+    def chunks(x):
+        x = jnp.concatenate([x, jnp.repeat(x[-1:], n * _CHUNK - T, axis=0)])
+        return x.reshape(n, _CHUNK, *x.shape[1:])
+
+    out = jax.lax.map(lambda c: jax.vmap(fn)(*c), tuple(chunks(x) for x in xs))
+    return jax.tree.map(lambda y: y.reshape(n * _CHUNK, *y.shape[2:])[:T], out)
+
+
 @partial(jax.jit, static_argnames="half")
 def _cues(left, right, hand_masks, centres_l, centres_r, counts, kernel, sigma, half: tuple[int, int]):
     """Both cues and the hand's pixels in the window of frames 1..T-1 from grey frames (T, H, W), the
     phase computed only where the cues read it (`crop_phase`): the left window at p_t in every frame
     (Psi_t(p_t + delta), and Psi_{t-1}(p_{t-1} + delta) of the next frame), the left window of frame
     t - 1 at p_t (the static background), the right view's window at p^R_t widened by the largest
-    offset d (eqs. 3-4; `counts` (2 d + 1,), `_offset_counts`)."""
+    offset d (eqs. 3-4; `counts` (2 d + 1,), `_offset_counts`). The stereo cue goes in chunks of
+    frames (`_in_chunks`), its right-view crops with it."""
     crop = jax.vmap(partial(crop_phase, half=half, kernel=kernel))
-    strip = jax.vmap(partial(crop_phase, half=(half[0], half[1] + (len(counts) - 1) // 2), kernel=kernel))
+    strip = partial(crop_phase, half=(half[0], half[1] + (len(counts) - 1) // 2), kernel=kernel)
     own = crop(left, centres_l)
     temporal = _temporal_ratio(own[1:], own[:-1], crop(left[:-1], centres_l[1:]), sigma)
-    stereo = jax.vmap(_stereo_ratio, in_axes=(0, 0, None, None))(own[1:], strip(right[1:], centres_r[1:]), counts,
-                                                                sigma)
+    stereo = _in_chunks(lambda w, r, c: _stereo_ratio(w, strip(r, c), counts, sigma), own[1:], right[1:],
+                        centres_r[1:])
     hands = jax.vmap(partial(_window, half=half))(hand_masks[1:].astype(jnp.float32), centres_l[1:])
     return temporal, stereo, hands > 0.5  # NaN outside the image: not the hand
 

@@ -372,3 +372,30 @@ def test_stereo_ratio_with_fewer_draws_than_offsets(scene):
     offsets = np.asarray(jax.random.randint(key, (4,), -10, 11))
     want = _stereo_ref(psi_l.astype(np.float64), psi_r.astype(np.float64), hand_l, hand_r, offsets)
     np.testing.assert_allclose(np.asarray(got.log_ratio), want, atol=2e-4)
+
+
+def test_segment_objects_in_chunks_of_frames(scene):
+    """`segment_objects` computes the stereo cue in chunks of frames (`_in_chunks`, padded to whole
+    chunks): over more frames than a chunk, not a multiple of it, the cues are still those of the
+    full-frame pieces, and a frame's values do not depend on how many frames come with it."""
+    from hog_jax.phase_segmentation import _CHUNK
+    left, right, hand_l, hand_r, *_ = scene
+    order = np.arange(_CHUNK + 3) % T  # the scene's frames again and again: 2 chunks, the second padded
+    left, right, hand_l, hand_r = left[order], right[order], hand_l[order], hand_r[order]
+    key = jax.random.key(11)
+
+    def run(n):
+        return segment_objects(key, left[:n], right[:n], hand_l[:n], hand_r[:n], np.zeros(left[:n].shape, bool),
+                               HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50)
+
+    res, short = run(len(order)), run(4)
+    psi_l, psi_r = gradient_phase(left, BLUR), gradient_phase(right, BLUR)
+    temporal = temporal_log_ratio(psi_l, hand_l, HALF, SIGMA)
+    stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], hand_l[1:], hand_r[1:], HALF, SIGMA, 10, 50)
+    for got, want, head in ((res.temporal, temporal, short.temporal), (res.stereo, stereo, short.stereo)):
+        assert np.shape(got.log_ratio) == (len(order) - 1, 2 * HALF[0] + 1, 2 * HALF[1] + 1)
+        np.testing.assert_array_equal(np.asarray(got.valid), np.asarray(want.valid))
+        np.testing.assert_allclose(np.asarray(got.log_ratio), np.asarray(want.log_ratio), atol=1e-5)
+        np.testing.assert_array_equal(np.asarray(head.log_ratio), np.asarray(got.log_ratio)[:3])
+        np.testing.assert_array_equal(np.asarray(head.valid), np.asarray(got.valid)[:3])
+    np.testing.assert_array_equal(np.asarray(short.masks), np.asarray(res.masks)[:4])
