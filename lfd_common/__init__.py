@@ -6,7 +6,7 @@ plumbing, so the little they share lives here.
 """
 from lfd_common.batch import frame_mask, pad_sequences
 from lfd_common.jaxsetup import cache_dir, enable_compilation_cache
-from lfd_common.numerics import NEG_INF, float_dtype, safe_log, safe_logaddexp, safe_logsumexp
+from lfd_common.numerics import NEG_INF, float_dtype, safe_log, safe_logaddexp, safe_logsumexp, solve_spd
 from lfd_common.persist import (
     SCHEMA_VERSION,
     ArraySpec,
@@ -30,6 +30,6 @@ __all__ = [
     "NEG_INF", "SCHEMA_VERSION", "ArraySpec", "ModelCodec", "as_array", "cache_dir", "check_choice",
     "check_int", "check_real", "enable_compilation_cache", "float_dtype", "frame_mask", "load_arrays",
     "load_model", "model_path", "pad_sequences", "read_file", "safe_log", "safe_logaddexp",
-    "safe_logsumexp", "save_arrays", "save_model", "structure_from_json", "structure_to_json",
+    "safe_logsumexp", "save_arrays", "save_model", "solve_spd", "structure_from_json", "structure_to_json",
     "write_npz",
 ]

@@ -42,3 +42,23 @@ def safe_logaddexp(a: jax.Array, b: jax.Array) -> jax.Array:
     peak = jax.lax.stop_gradient(jnp.maximum(a, b))
     peak = jnp.where(jnp.isfinite(peak), peak, 0.0)
     return safe_log(jnp.exp(a - peak) + jnp.exp(b - peak)) + peak
+
+
+def solve_spd(matrix, rhs):
+    """x with M x = r for symmetric positive-definite M (..., d, d) and r (..., d), by a Cholesky
+    factorisation unrolled over the static, small d (elementwise over the batch): no LAPACK call, so
+    none of the batched custom calls that deadlock XLA:CPU (README, Known problems). Used by the PHMM
+    search (its Newton steps) and `sim`'s inverse kinematics (the 6 x 6 damped least-squares system)."""
+    d = matrix.shape[-1]
+    low = [[None] * d for _ in range(d)]
+    for j in range(d):
+        low[j][j] = jnp.sqrt(matrix[..., j, j] - sum(low[j][k] ** 2 for k in range(j)))
+        for i in range(j + 1, d):
+            low[i][j] = (matrix[..., i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[j][j]
+    y = []
+    for i in range(d):
+        y.append((rhs[..., i] - sum(low[i][k] * y[k] for k in range(i))) / low[i][i])
+    x = [None] * d
+    for i in reversed(range(d)):
+        x[i] = (y[i] - sum(low[k][i] * x[k] for k in range(i + 1, d))) / low[i][i]
+    return jnp.stack(x, axis=-1)

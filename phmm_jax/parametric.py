@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
-from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log
+from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log, solve_spd
 from phmm_jax import inference
 from phmm_jax._batched import emission_columns
 from phmm_jax.checks import (check_distances, check_fit_scale, check_grid_shape, check_type, covariance_range,
@@ -216,25 +216,6 @@ def _start_lattice(n_params: int, points: int) -> jnp.ndarray:
     return jnp.asarray(np.stack(np.meshgrid(*[axis] * n_params, indexing="ij"), -1).reshape(-1, n_params))
 
 
-def _solve_spd(matrix, rhs):
-    """x with M x = r for symmetric positive-definite M (..., d, d) and r (..., d), by a Cholesky
-    factorisation unrolled over the static, small d (elementwise over the batch): no LAPACK call, so
-    none of the batched custom calls that deadlock XLA:CPU (README, Known problems)."""
-    d = matrix.shape[-1]
-    low = [[None] * d for _ in range(d)]
-    for j in range(d):
-        low[j][j] = jnp.sqrt(matrix[..., j, j] - sum(low[j][k] ** 2 for k in range(j)))
-        for i in range(j + 1, d):
-            low[i][j] = (matrix[..., i, j] - sum(low[i][k] * low[j][k] for k in range(j))) / low[j][j]
-    y = []
-    for i in range(d):
-        y.append((rhs[..., i] - sum(low[i][k] * y[k] for k in range(i))) / low[i][i])
-    x = [None] * d
-    for i in reversed(range(d)):
-        x[i] = (y[i] - sum(low[k][i] * x[k] for k in range(i + 1, d))) / low[i][i]
-    return jnp.stack(x, axis=-1)
-
-
 def _newton_direction(grad, hess, phi, lower, upper, damping):
     """The damped Newton (Levenberg-Marquardt) ascent step δ (B, d) of every sequence: (A + s I) δ = g
     with A = −H on the free coordinates, s the damping (relative to A's largest diagonal entry) plus
@@ -250,7 +231,7 @@ def _newton_direction(grad, hess, phi, lower, upper, damping):
     radius = jnp.sum(jnp.abs(a), axis=2) - jnp.abs(diag)
     scale = jnp.max(jnp.abs(diag), axis=1) + jnp.finfo(grad.dtype).tiny
     shift = jnp.maximum(0.0, jnp.max(radius - diag, axis=1)) + damping * scale + 1e-6 * scale
-    return _solve_spd(a + shift[:, None, None] * eye, jnp.where(free, grad, 0.0))
+    return solve_spd(a + shift[:, None, None] * eye, jnp.where(free, grad, 0.0))
 
 
 def _secant_update(hess, s, y):

@@ -166,13 +166,13 @@ def test_recognize_reaches_the_maximum_of_a_dense_scan():
 
 
 def test_solve_spd_matches_numpy():
-    from phmm_jax.parametric import _solve_spd
+    from lfd_common import solve_spd
     rng = np.random.default_rng(6)
     for d in (1, 2, 3):
         a = rng.normal(size=(5, d, d))
         m = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(d)
         r = rng.normal(size=(5, d))
-        np.testing.assert_allclose(np.asarray(_solve_spd(jnp.asarray(m), jnp.asarray(r))),
+        np.testing.assert_allclose(np.asarray(solve_spd(jnp.asarray(m), jnp.asarray(r))),
                                    np.linalg.solve(m, r[..., None])[..., 0], rtol=1e-4, atol=1e-5)
 
 
