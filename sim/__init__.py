@@ -7,12 +7,24 @@ The demonstration scene (issue 18): `person_scene_xml(look, rig, objects)` write
 (`PersonLook`), a table, objects and a textured wall filmed by a rectified stereo pair (`StereoRig`);
 `PersonScene` poses it per frame (`ScenePose`) and renders RGB and part labels of both views
 (`PART_NAMES`, `PART_LABELS`: background, person, hand skin, face skin, objects).
+
+The robot (issue 21): `manipulator_scene_xml(hand)` writes a Barrett-WAM-like 7-DoF arm on a pedestal
+at that table, carrying the Barrett-like or Karlsruhe-like hand of `sim.robot_hands` on its flange,
+with joint-space position servos, gravity compensation and a few free objects; `manipulator_model`
+compiles it with its `ManipulatorLayout` (qpos/ctrl indices), `manipulator_qpos` sets a pose.
+`arm_chain(model)` reads the arm's kinematic chain (`ArmChain`) to the palm site;
+`forward_kinematics(chain, q)` and the batched damped-least-squares `solve_ik(chain, target_pos,
+target_rot, q0)` -> `IKResult(q, pos_error, rot_error, reachable)` run in JAX.
 """
+from sim.manipulator import ManipulatorLayout, manipulator_model, manipulator_qpos, manipulator_scene_xml
+from sim.manipulator_ik import ArmChain, IKResult, arm_chain, forward_kinematics, solve_ik
 from sim.person_body import PersonLook
 from sim.person_scene import PART_LABELS, PART_NAMES, PersonScene, ScenePose, StereoRig, TableSpec, person_scene_xml
 from sim.render import render_frame, setup_rendering
 from sim.rollout import batched_rollout, worlds_from_qpos
 from sim.scenes import tabletop_drop_scene
 
-__all__ = ["PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene", "ScenePose", "StereoRig", "TableSpec",
+__all__ = ["ArmChain", "IKResult", "ManipulatorLayout", "arm_chain", "forward_kinematics", "manipulator_model",
+           "manipulator_qpos", "manipulator_scene_xml", "solve_ik",
+           "PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene", "ScenePose", "StereoRig", "TableSpec",
            "person_scene_xml", "batched_rollout", "render_frame", "setup_rendering", "tabletop_drop_scene", "worlds_from_qpos"]

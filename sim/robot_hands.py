@@ -44,7 +44,7 @@ from sim.scenes import checker_asset_xml
 
 __all__ = ["HANDS", "HAND_NAMES", "LS_ITERATIONS", "MJX_MAX_CONTACTS", "SOLVER_ITERATIONS", "TIMESTEP_S",
            "WRIST_ACTUATORS", "Finger", "HandSpec", "SceneLayout", "grasp_model", "grasp_scene_xml",
-           "hand_joint_qpos", "hand_spec", "parked_position", "preshape", "scene_layout"]
+           "hand_body_xml", "hand_joint_qpos", "hand_spec", "parked_position", "preshape", "scene_layout"]
 
 # The floating wrist, world x, y, z slides then the a, b, c hinges: (joint, MJCF joint attributes,
 # position actuator kp, kv, force limit).
@@ -112,8 +112,15 @@ def _finger_xml(f: Finger, spec: HandSpec) -> tuple[str, list[str]]:
     return body, equalities
 
 
-def _hand_xml(spec: HandSpec) -> tuple[str, str, str]:
-    """(hand body MJCF, actuator MJCF, equality MJCF) of `spec` on the floating wrist."""
+def hand_body_xml(hand: str, joints_xml: str = "") -> tuple[str, str, str]:
+    """The hand of `hand` as an MJCF body fragment named "hand" (hand frame: see `sim.robot_hand_specs`),
+    to be placed inside a parent body: (body MJCF, finger actuator MJCF, equality MJCF).
+
+    `joints_xml` goes first in the body (the floating wrist's joints here; empty on an arm's flange,
+    which places the hand with the parent's pose). Every hand body has gravcomp="1": its weight is
+    compensated, whatever carries it.
+    """
+    spec = hand_spec(hand)
     fingers, equalities = [], []
     for f in spec.fingers:
         body, eq = _finger_xml(f, spec)
@@ -125,18 +132,15 @@ def _hand_xml(spec: HandSpec) -> tuple[str, str, str]:
         equalities.append(f'<joint joint1="{f.name}_spread" joint2="{spread[0].name}_spread" '
                           f'polycoef="0 1 0 0 0" solref="0.005 1"/>')
     palm_pad = spec.palm_radius + 0.003
-    wrist_joints = "".join(f'<joint name="{n}" {attrs}/>' for n, attrs, *_ in _WRIST)
     hand = f"""
     <body name="hand" gravcomp="1">
-      {wrist_joints}
+      {joints_xml}
       <geom name="palm" type="capsule" fromto="{_fmt(spec.palm_fromto)}" size="{spec.palm_radius:g}" {_HAND_BITS} rgba="0.25 0.25 0.3 1" mass="0.6"/>
       <geom name="wrist" type="capsule" fromto="0 0 -0.05 0 0 -0.12" size="0.02" contype="0" conaffinity="0" rgba="0.3 0.3 0.35 1" mass="0.2"/>
       <site name="palm" type="capsule" fromto="{_fmt(spec.palm_fromto)}" size="{palm_pad:g}" rgba="0 0 0 0"/>
       <site name="palm_centre" pos="0 0 0" size="0.004"/>
       {"".join(fingers)}
     </body>"""
-    wrist_act = "".join(f'<position name="{n}" joint="{n}" kp="{kp:g}" kv="{kv:g}" forcerange="-{f:g} {f:g}"/>'
-                        for n, _, kp, kv, f in _WRIST)
     joint_of = {}
     for f in spec.fingers:
         joint_of.setdefault(f.flex_dof, f"{f.name}_prox")
@@ -149,7 +153,16 @@ def _hand_xml(spec: HandSpec) -> tuple[str, str, str]:
     hand_act = "".join(
         f'<position name="{d}" joint="{joint_of[d]}" kp="{spec.finger_kp:g}" kv="0.05" '
         f'forcerange="-{spec.finger_force:g} {spec.finger_force:g}"/>' for d in spec.dofs)
-    return hand, wrist_act + hand_act, "".join(equalities)
+    return hand, hand_act, "".join(equalities)
+
+
+def _hand_xml(spec: HandSpec) -> tuple[str, str, str]:
+    """(hand body MJCF, actuator MJCF, equality MJCF) of `spec` on the floating wrist."""
+    wrist_joints = "".join(f'<joint name="{n}" {attrs}/>' for n, attrs, *_ in _WRIST)
+    hand, hand_act, equalities = hand_body_xml(spec.name, wrist_joints)
+    wrist_act = "".join(f'<position name="{n}" joint="{n}" kp="{kp:g}" kv="{kv:g}" forcerange="-{f:g} {f:g}"/>'
+                        for n, _, kp, kv, f in _WRIST)
+    return hand, wrist_act + hand_act, equalities
 
 
 def _sensor_xml(spec: HandSpec) -> str:
