@@ -31,6 +31,19 @@ Parametric HMMs
     estimate_noise_variance(X, lengths)        -> σ² of white noise, from the sequences' second differences
     target_to_phi(corner_targets, targets)     -> (M, d) interpolation parameters of target points
 
+Online recognition (BMVC 2008 §5.4, Humanoids 2008 §V; frames arrive one at a time: `phmm_jax.stream`, `.online`)
+    init_stream(hmm, n_streams=None) -> StreamState(log_alpha (N, P), n_frames, log_prefix, loglik)
+    stream_step(hmm, state, x_t (D,)) / stream_step_batch(hmm, states, X_t (S, D))   one frame, pure, jit-able
+    stream_forward(hmm, X (T, D), state=None) -> StreamState (T, ...)   by lax.scan; equals the batch
+        forward pass at every prefix (loglik: the sequence ends here, = log_likelihood of the prefix)
+    online_recognizer(phmms, threshold, window=5, exit_threshold=0.5, lattice_points=5, max_frames=None)
+        -> OnlineRecognizer: per class a forward state for each φ of the start lattice (fixed cost per frame)
+    init_online(recognizer, n_streams=None) -> OnlineState
+    online_step(recognizer, state, x_t) / online_step_batch -> (OnlineState, OnlineFrame)   pure, jit-able
+    online_scan(recognizer, stream (T, D)) -> (OnlineState, OnlineFrame (T, ...))   by lax.scan
+    run_online(recognizer, stream (T, D)) -> OnlineEvents(found, start, end, report, label, phi (E, d), loglik (E, K))
+    OnlineStream(recognizer).push(x_t) -> OnlineEvents   a live stream; report = end + window frames
+
 Retargeting to a robot arm (Humanoids 2008 §IV-B, eqs. 10-24)
     retarget(markers (..., T, 7, 3), upper_arm, forearm) -> ArmAngles (shoulder Cardan angles, elbow, wrist twist)
     solve_arm(q, r, o, upper_arm, forearm) -> ArmSolution  the same for elbow/hand/finger vectors; MARKER_ORDER: marker layout
@@ -52,15 +65,22 @@ from phmm_jax.gradfit import fit_hmm_gradient
 from phmm_jax.io import PHMMStructure, load, save
 from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
 from phmm_jax.noise import estimate_noise_variance, with_observation_noise
+from phmm_jax.online import (OnlineFrame, OnlineRecognizer, OnlineState, init_online, online_recognizer, online_scan,
+                             online_step, online_step_batch)
+from phmm_jax.online_events import OnlineEvents, OnlineStream, run_online
 from phmm_jax.options import FitOptions
 from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
 from phmm_jax.retarget import MARKER_ORDER, ArmAngles, ArmSolution, retarget, solve_arm
+from phmm_jax.stream import StreamState, init_stream, stream_forward, stream_step, stream_step_batch
 from phmm_jax.synthesis import synthesize, target_to_phi
 
 __all__ = [
     "ArmAngles", "ArmSolution", "FitOptions", "HMM", "MARKER_ORDER", "Messages", "PHMM", "PHMMStructure", "DenseHMM",
-    "HMMConfig", "Posteriors", "Recognition",
+    "HMMConfig", "OnlineEvents", "OnlineFrame", "OnlineRecognizer", "OnlineState", "OnlineStream", "Posteriors",
+    "Recognition", "StreamState",
     "estimate_noise_variance", "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
-    "interpolate", "load", "log_likelihood", "messages", "phmm_log_likelihood", "posteriors",
-    "recognize", "retarget", "save", "solve_arm", "synthesize", "target_to_phi", "viterbi", "with_observation_noise",
+    "init_online", "init_stream", "interpolate", "load", "log_likelihood", "messages", "online_recognizer",
+    "online_scan", "online_step", "online_step_batch", "phmm_log_likelihood", "posteriors",
+    "recognize", "retarget", "run_online", "save", "solve_arm", "stream_forward", "stream_step", "stream_step_batch",
+    "synthesize", "target_to_phi", "viterbi", "with_observation_noise",
 ]
