@@ -12,7 +12,9 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
 
 * Segmentation: `GMM`, `SkinModel`, `fit_gmm(key, x, n_components)`, `fit_skin_model(key, skin_rgb,
   background_rgb)`, `skin_log_ratio(model, frames)`, `segment(model, frames, ...)` -> `Segmentation`,
-  `rgb_to_chroma`, `gmm_log_prob`, `median3`, `save_skin_model(path, model)` / `load_skin_model(path)`
+  `rgb_to_chroma`, `gmm_log_prob`, `median3`, `crop_components(gray, masks, seed_points, out_size)` (the
+  component-and-square-crop steps of `segment` on any masks, e.g. the video pipeline's hand or object),
+  `save_skin_model(path, model)` / `load_skin_model(path)`
   (the structure, `SkinStructure`, and the arrays, checked on load, through `lfd_common.save_model`).
 * HOG: `HOGConfig` (n_bins=4, n_levels=3, layout="pyramid"|"grid", orientation="grasp"|"abs",
   weighting="magnitude"|"count", binning="hard"|"soft", normalize="global"|"cell"|"none"),
@@ -96,11 +98,13 @@ from hog_jax.hog import HOGConfig, hog, hog_dim
 from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
                          quat_to_euler, vote)
 from hog_jax.lsh import LSHIndex, TuneResult, build_index, query, recall_at_k, tune
-from hog_jax.segment import (GMM, Segmentation, SkinModel, SkinStructure, fit_gmm, fit_skin_model, gmm_log_prob,
+from hog_jax.segment import (GMM, Segmentation, SkinModel, SkinStructure, crop_components, fit_gmm, fit_skin_model,
+                             gmm_log_prob,
                              load_skin_model, median3, rgb_to_chroma, save_skin_model, segment, skin_log_ratio)
 
 __all__ = [
-    "GMM", "Segmentation", "SkinModel", "SkinStructure", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
+    "GMM", "Segmentation", "SkinModel", "SkinStructure", "crop_components", "fit_gmm", "fit_skin_model",
+    "gmm_log_prob", "load_skin_model",
     "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
     "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "Prediction", "TuneResult", "build_index",
     "euler_to_quat", "exact_search", "fit", "hog", "hog_dim", "intra_class_sigma", "mean_rotation",

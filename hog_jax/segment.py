@@ -46,7 +46,8 @@ from hog_jax._checks import check_key
 from lfd_common import ArraySpec, ModelCodec, as_array, check_choice, check_int, check_real, load_model, save_model
 
 __all__ = [
-    "GMM", "Segmentation", "SkinModel", "SkinStructure", "fit_gmm", "fit_skin_model", "gmm_log_prob", "load_skin_model",
+    "GMM", "Segmentation", "SkinModel", "SkinStructure", "crop_components", "fit_gmm", "fit_skin_model",
+    "gmm_log_prob", "load_skin_model",
     "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
 ]
 
@@ -251,6 +252,55 @@ def _crops(gray, comp, top, left, side, size: int):
     return jax.vmap(one)(gray, comp, top, left, side)
 
 
+def _chosen_components(labels: np.ndarray, stats: np.ndarray, seeds: np.ndarray | None) -> np.ndarray:
+    """(B,) the global component id kept per frame (0: none): the one containing or nearest to the
+    frame's seed (row, col), or the largest without seeds; vectorised over all labelled pixels."""
+    B = labels.shape[0]
+    fb, fr, fc = np.nonzero(labels)
+    lab = labels[fb, fr, fc]
+    if seeds is None:
+        score = stats[lab, cv2.CC_STAT_AREA].astype(np.float64)  # larger is better
+    else:
+        score = -((fr - seeds[fb, 0]) ** 2 + (fc - seeds[fb, 1]) ** 2)  # nearer is better
+    best = np.full(B, -np.inf)
+    np.maximum.at(best, fb, score)
+    chosen = np.zeros(B, np.int64)
+    hit = score == best[fb]
+    chosen[fb[hit]] = lab[hit]  # ties: any of the best
+    return chosen
+
+
+def crop_components(gray: Float[ArrayLike, "B H W"], masks: Bool[ArrayLike, "B H W"],
+                    seed_points: Real[ArrayLike, "B 2"] | None = None, out_size: int = 64,
+                    margin: float = 0.1) -> Segmentation:
+    """Steps 5-6 of `segment` on any masks: per frame of `gray` (B, H, W) (intensities, background 0
+    after cropping) the 8-connected component of `masks` (B, H, W) containing or nearest to the
+    frame's seed (row, col), or the largest without seeds, cropped as its square box grown by `margin`
+    and resampled to `out_size` with its mask. Returns a `Segmentation` (its `skin` is `masks`); a
+    frame without mask pixels gives found = False, a zero image, an all-False mask and box -1.
+    ValueError naming the argument."""
+    g = as_array(gray, "gray", ndim=3, dtype=np.float32)
+    m = as_array(masks, "masks", shape=g.shape, dtype=bool)
+    S = check_int(out_size, "out_size", min_value=1)
+    margin = check_real(margin, "margin", min_value=0.0)
+    seeds = None if seed_points is None else as_array(seed_points, "seed_points", shape=(g.shape[0], 2))
+    labels, stats = _components(m)
+    chosen = _chosen_components(labels, stats, seeds)
+    found = chosen > 0
+    left, top = stats[chosen, cv2.CC_STAT_LEFT], stats[chosen, cv2.CC_STAT_TOP]
+    w, h = stats[chosen, cv2.CC_STAT_WIDTH], stats[chosen, cv2.CC_STAT_HEIGHT]
+    side = np.maximum(np.ceil(np.maximum(w, h) * (1.0 + 2.0 * margin)).astype(np.int64), 1)
+    top = top + h // 2 - side // 2
+    left = left + w // 2 - side // 2
+    comp = labels == np.where(found, chosen, stats.shape[0])[:, None, None]
+    imgs, crops = _crops(jnp.asarray(g), jnp.asarray(comp, jnp.float32), jnp.asarray(top, jnp.float32),
+                         jnp.asarray(left, jnp.float32), jnp.asarray(side, jnp.float32), S)
+    f = jnp.asarray(found)
+    boxes = np.where(found[:, None], np.stack([top, left, top + side, left + side], 1), -1).astype(np.int32)
+    return Segmentation(jnp.where(f[:, None, None], imgs, 0.0), crops & f[:, None, None], f, jnp.asarray(boxes),
+                        jnp.asarray(m))
+
+
 def segment(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points: Real[ArrayLike, "B 2"] | None = None,
             out_size: int = 64, margin: float = 0.1, threshold: float | None = None) -> Segmentation:
     """Segment the hand in each RGB frame (B, H, W, 3) (uint8 or real in [0, 255]).
@@ -264,50 +314,13 @@ def segment(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points: R
     B, H, W, ch = arr.shape
     if ch != 3:
         raise ValueError(f"frames: expected (B, H, W, 3) RGB frames, got shape {arr.shape}")
-    S = check_int(out_size, "out_size", min_value=1)
-    margin = check_real(margin, "margin", min_value=0.0)
+    check_int(out_size, "out_size", min_value=1)
+    check_real(margin, "margin", min_value=0.0)
     thr = model.threshold if threshold is None else jnp.float32(check_real(threshold, "threshold"))
-    seeds = None
-    if seed_points is not None:
-        seeds = as_array(seed_points, "seed_points", shape=(B, 2))
-    x = jnp.asarray(arr)
-    skin = np.asarray(_skin_masks(model, x, thr))
-    labels, stats = _components(skin)
-    n_labels = stats.shape[0]
-    # choose one component per frame, vectorised over all labelled pixels
-    fb, fr, fc = np.nonzero(labels)
-    lab = labels[fb, fr, fc]
-    if seeds is None:
-        score = stats[:, cv2.CC_STAT_AREA].astype(np.float64)  # larger is better
-        best_score = np.full(B, -np.inf)
-        np.maximum.at(best_score, fb, score[lab])
-        chosen = np.full(B, -1)
-        hit = score[lab] == best_score[fb]
-        chosen[fb[hit]] = lab[hit]  # ties: any of the largest
-    else:
-        d2 = (fr - seeds[fb, 0]) ** 2 + (fc - seeds[fb, 1]) ** 2
-        best = np.full(B, np.inf)
-        np.minimum.at(best, fb, d2)
-        chosen = np.full(B, -1)
-        hit = d2 == best[fb]
-        chosen[fb[hit]] = lab[hit]
-    found = chosen > 0
-    safe = np.where(found, chosen, 0)
-    left, top = stats[safe, cv2.CC_STAT_LEFT], stats[safe, cv2.CC_STAT_TOP]
-    w, h = stats[safe, cv2.CC_STAT_WIDTH], stats[safe, cv2.CC_STAT_HEIGHT]
-    side = np.ceil(np.maximum(w, h) * (1.0 + 2.0 * margin)).astype(np.int64)
-    side = np.maximum(side, 1)
-    top = top + h // 2 - side // 2
-    left = left + w // 2 - side // 2
-    comp = (labels == np.where(found, chosen, n_labels)[:, None, None])
+    seeds = None if seed_points is None else as_array(seed_points, "seed_points", shape=(B, 2))
+    skin = np.asarray(_skin_masks(model, jnp.asarray(arr), thr))
     gray = (arr @ np.array([0.299, 0.587, 0.114], np.float32)) / 255.0
-    imgs, masks = _crops(jnp.asarray(gray), jnp.asarray(comp, jnp.float32), jnp.asarray(top, jnp.float32),
-                         jnp.asarray(left, jnp.float32), jnp.asarray(side, jnp.float32), S)
-    f = jnp.asarray(found)
-    imgs = jnp.where(f[:, None, None], imgs, 0.0)
-    masks = masks & f[:, None, None]
-    boxes = np.where(found[:, None], np.stack([top, left, top + side, left + side], 1), -1).astype(np.int32)
-    return Segmentation(imgs, masks, f, jnp.asarray(boxes), jnp.asarray(skin))
+    return crop_components(gray, skin, seeds, out_size, margin)
 
 
 # ------------------------------------------------------------------------------------ persistence

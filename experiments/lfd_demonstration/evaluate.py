@@ -12,31 +12,26 @@ from typing import NamedTuple
 
 import numpy as np
 
-GT_OBJECT = 4
+from experiments.lfd_demonstration.features import TRUE_OBJECT as GT_OBJECT, windows
 
 
 class EventMatch(NamedTuple):
     """Errors in frames (found - true) of the matched periods' pick-ups and put-downs, (M,) each, the
     number of true periods no found period matched (missed) and of found periods that matched no
-    true one (spurious)."""
+    true one (spurious), and the matched pairs' indices (M,) into the true and the found periods."""
 
     pickup_error: np.ndarray
     putdown_error: np.ndarray
     missed: int
     spurious: int
+    true_index: np.ndarray = np.zeros(0, int)
+    found_index: np.ndarray = np.zeros(0, int)
 
 
 def truth_windows(labels: np.ndarray, centres: np.ndarray, half: tuple[int, int]) -> np.ndarray:
     """(T, h, w) bool: the held object (label >= 4) in the window around each centre (T, 2) (row,
     column) of the labels (T, H, W); outside the image: not the object."""
-    hh, hw = half
-    padded = np.pad(np.asarray(labels) >= GT_OBJECT, ((0, 0), (hh, hh), (hw, hw)))
-    r, c = (np.rint(np.asarray(centres, float)).astype(int).T[k] for k in (0, 1))
-    rows = r[:, None, None] + np.arange(2 * hh + 1)[None, :, None]
-    cols = c[:, None, None] + np.arange(2 * hw + 1)[None, None, :]
-    inside = (rows >= 0) & (rows < padded.shape[1]) & (cols >= 0) & (cols < padded.shape[2])
-    t = np.arange(len(r))[:, None, None]
-    return inside & padded[t, np.clip(rows, 0, padded.shape[1] - 1), np.clip(cols, 0, padded.shape[2] - 1)]
+    return windows(np.asarray(labels) >= GT_OBJECT, centres, half, fill=False)
 
 
 def pooled_iou(ours: np.ndarray, truth: np.ndarray) -> tuple[int, int]:
@@ -58,7 +53,7 @@ def match_events(true_pickup, true_putdown_last, pickup, putdown) -> EventMatch:
             pairs.append((i, j))
             free_t[i] = free_f[j] = False
     i, j = (np.array(v, int) for v in zip(*pairs)) if pairs else (np.zeros(0, int), np.zeros(0, int))
-    return EventMatch(f0[j] - t0[i], f1[j] - t1[i], int(free_t.sum()), int(free_f.sum()))
+    return EventMatch(f0[j] - t0[i], f1[j] - t1[i], int(free_t.sum()), int(free_f.sum()), i, j)
 
 
 def hand_width(cov: np.ndarray, observed: np.ndarray) -> float:

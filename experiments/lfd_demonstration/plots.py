@@ -50,16 +50,34 @@ def likelihood_ratios(first) -> plt.Figure:
     return fig
 
 
+def _period_labels(ax, first, fps: float) -> None:
+    """Above each found period: its CHCRF label (eq. 9) with P(a, o | x), with the history prior (eq. 10),
+    and Z(x)."""
+    labels = first.get("labels")
+    if not labels:
+        return
+    found, periods = labels["found"], labels["found_periods"]
+    for k, (a, b) in enumerate(zip(periods.pickup, periods.putdown)):
+        lines = []
+        for name, lj in (("eq. 9", found.log_joint[k]), ("+ history", found.log_joint_history[k])):
+            i, j = np.unravel_index(np.argmax(lj), lj.shape)
+            lines.append(f"{name}: {ACTIONS[i]} {OBJECTS[j]} {np.exp(lj[i, j]):.2f}")
+        lines.append(f"Z = {np.exp(found.log_z[k]):.2g}")
+        ax.text((a + b) / 2 / fps, 3.25, "\n".join(lines), ha="center", va="bottom", fontsize=5.5, color="tab:blue")
+        ax.plot([a / fps, b / fps], [3.2, 3.2], color="tab:blue", lw=1)
+
+
 def object_in_hand(first, fps: float) -> plt.Figure:
     """Fig. 8: per frame the raw "object in hand" (a mask found, where the hand moved), the filtered
-    classification with its periods, and the truth, over the first long recording."""
+    classification with its periods and each period's CHCRF label, and the truth, over the first long
+    recording."""
     rec, periods = first["rec"], first["periods"]
     T = len(first["raw"])
     truth = np.zeros(T, bool)
     for a, b in zip(rec.pickup_frames, rec.putdown_frames):
         truth[a:b + 1] = True
     t = np.arange(T) / fps
-    fig, ax = plt.subplots(figsize=(10, 2.8))
+    fig, ax = plt.subplots(figsize=(12, 3.6))
     ax.fill_between(t, 2.1, 2.1 + 0.8 * truth, step="post", color="k", alpha=0.7, label="truth")
     ax.fill_between(t, 1.05, 1.05 + 0.8 * periods.in_hand, step="post", color="tab:blue", alpha=0.7,
                     label="filtered (periods)")
@@ -69,11 +87,13 @@ def object_in_hand(first, fps: float) -> plt.Figure:
                     label="undecided (hand still or lost)")
     for a, b, act, obj in zip(rec.pickup_frames, rec.putdown_frames, rec.event_action, rec.event_object):
         ax.text((a + b) / 2 / fps, 3.0, f"{ACTIONS[act]} {OBJECTS[obj]}", ha="center", fontsize=7)
+    _period_labels(ax, first, fps)
     ax.set_yticks([0.4, 1.45, 2.5], ["raw", "filtered", "truth"])
     ax.set_xlabel("time (s)")
-    ax.set_ylim(0, 3.3)
+    ax.set_ylim(0, 4.3 if first.get("labels") else 3.3)
     ax.legend(fontsize=7, loc="upper right", ncol=4, bbox_to_anchor=(1, -0.25))
-    ax.set_title("object in hand over the first long recording (LfD 2009 Fig. 8)", fontsize=9)
+    ax.set_title("object in hand over the first long recording (LfD 2009 Fig. 8); blue, top: the CHCRF label "
+                 "of each found period", fontsize=9)
     fig.tight_layout()
     return fig
 

@@ -15,7 +15,10 @@ from experiments.bench.object_peer import peer_object_masks
 from experiments.config import StageResult, parse_config, progress
 from experiments.data import video
 from experiments.lfd_demonstration import plots
+from experiments.lfd_demonstration.clips import clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
+from experiments.lfd_demonstration.features import FeatureSpec, pipeline_features
+from experiments.lfd_demonstration.labelling import label_metrics, label_periods
 from experiments.lfd_demonstration.evaluate import (EventMatch, hand_width, held_object_motion, iou_by_bin,
                                                     match_events, pooled_iou, truth_windows)
 from experiments.lfd_demonstration.report import report
@@ -49,7 +52,8 @@ def hand_tracks(positions, start: int):
 def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int) -> dict | None:
     """One long recording through the front end, then the object in the hand's window per frame, ours
     and the peer's: {"ours" / "peer": (masks (T, h, w), found (T,)), "truth", "tracked", "decided",
-    ...}; None when the hand is never found (a flagged recording)."""
+    "labels" and "positions" of the front end, ...}; None when the hand is never found (a flagged
+    recording)."""
     scale = cfg.scale(settings)
     half = (round(cfg.half_window * scale),) * 2
     labels, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + index), cfg.pad_frames)
@@ -69,7 +73,7 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int) -> dict 
             "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, removed, half)),
             "truth": truth_windows(rec.left_labels, hand_l, half), "tracked": tracked,
             "decided": np.asarray(ours.hand_moved) & tracked, "objects": ours, "sigma_px": sigma, "start": start,
-            "grey": gl, "half": half, "hand": hand_l}
+            "grey": gl, "half": half, "hand": hand_l, "labels": labels, "positions": positions}
 
 
 def _event_metrics(matches: list, prefix: str) -> dict:
@@ -96,12 +100,27 @@ def failure_cases(w: dict) -> dict:
             for name in ("ours", "peer")}
 
 
-def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
-    """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events."""
+def recording_labels(cfg: Config, settings, clips, rec, out: dict, periods, match, spec: FeatureSpec) -> dict:
+    """The CHCRF labels (eqs. 9-10) of one recording's found periods and, as the oracle segmentation,
+    of its true ones, each with the true OAC where a found period matched one."""
+    feats = pipeline_features(out, spec)
+    label = lambda starts, stops: label_periods(cfg, settings, clips, int(rec.person), feats, out["hand"],  # noqa
+                                                np.asarray(starts, int), np.asarray(stops, int), cfg.scale(settings))
+    truth = np.stack([rec.event_action, rec.event_object], 1).astype(int)
+    found_truth = np.full((len(periods.pickup), 2), -1)
+    found_truth[match.found_index] = truth[match.true_index]
+    return {"found": label(periods.pickup, periods.putdown), "found_truth": found_truth, "found_periods": periods,
+            "true": label(rec.pickup_frames, np.asarray(rec.putdown_frames) + 1), "true_truth": truth}
+
+
+def object_stage(cfg: Config, settings, rgb_skin, clips=None,
+                 spec: FeatureSpec = FeatureSpec()) -> tuple[dict, StageResult]:
+    """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events; with
+    `clips` (the clips' pipeline features, `OACData`), the CHCRF label and Z(x) of each OAC found."""
     radius = max(1, round(cfg.filter_radius * settings.fps / 25.0))
     sums = {"ours": np.zeros(2, int), "peer": np.zeros(2, int)}
     events = {"ours": [], "peer": []}
-    rows, first = [], None
+    rows, first, labelled = [], None, []
     windows = {"ours": [], "peer": [], "truth": [], "depth": [], "rotation": []}  # for the failure cases
     for i, script in enumerate(progress(video.long_scripts(settings), desc="long recordings")):
         rec = video.render_recording(settings, script, progress=progress)
@@ -127,8 +146,11 @@ def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
             events[name].append(match)
             row.update({f"{name}_iou": counts[0] / max(counts[1], 1), f"{name}_missed": match.missed,
                         f"{name}_spurious": match.spurious, f"{name}_found_events": int(len(periods.pickup))})
+            if name == "ours" and clips is not None:
+                labelled.append(recording_labels(cfg, settings, clips, rec, out, periods, match, spec))
             if name == "ours" and first is None:
-                first = {**out, "rec": rec, "masks": masks, "raw": found, "periods": periods}
+                first = {**out, "rec": rec, "masks": masks, "raw": found, "periods": periods,
+                         "labels": labelled[-1] if labelled else None}
     metrics = {"object_mask_iou": sums["ours"][0] / max(sums["ours"][1], 1),
                "object_mask_iou_peer": sums["peer"][0] / max(sums["peer"][1], 1), "n_recordings": len(rows),
                "events_true": sum(r["true_events"] for r in rows),
@@ -138,6 +160,8 @@ def object_stage(cfg: Config, settings, rgb_skin) -> tuple[dict, StageResult]:
         return metrics, StageResult(metrics)
     failure = failure_cases({k: np.concatenate(v) for k, v in windows.items()})
     metrics["iou_by"] = failure
+    if labelled:
+        metrics.update(label_metrics(labelled))
     figures = {"fig3_likelihood_ratios.png": plots.likelihood_ratios(first),
                "fig8_object_in_hand.png": plots.object_in_hand(first, settings.fps),
                "iou_vs_depth_and_rotation.png": plots.iou_by_motion(failure)}
@@ -152,9 +176,15 @@ def main(argv=None) -> dict:
     settings = cfg.video_settings()
     skin_persons = range(settings.n_persons - cfg.n_skin_persons, settings.n_persons)
     _, rgb_skin, skin_metrics = skin_stage(cfg, settings, skin_persons)
-    metrics, result = object_stage(cfg, settings, rgb_skin)
+    spec = FeatureSpec()
+    clip_metrics, clip_set = {}, None
+    if cfg.clip_repetitions:
+        clip_set = clip_stage(cfg, settings, rgb_skin, spec)
+        clip_metrics = table_metrics(tables(cfg, clip_set), clip_set)
+    metrics, result = object_stage(cfg, settings, rgb_skin, clip_set and clip_set.data["pipeline"], spec)
+    metrics.update(clip_metrics)
     runtime = time.perf_counter() - start_s
     written = run.write_stages([result], header=report(cfg, settings, metrics, runtime), runtime_s=runtime,
-                               **skin_metrics)
+                               **skin_metrics, **clip_metrics)
     print(f"wrote {run.path}/ in {runtime:.0f} s")
     return written
