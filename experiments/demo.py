@@ -15,8 +15,9 @@ Stage "oac": one simulated object-action complex classified by a CHCRF (`oac_dem
 experiments.oac_recognition).
 Stage "video": one rendered stereo clip segmented into skin, person, object and background, hand and
 face tracked (`video_demo_sheet.png`; experiments.video_segmentation).
-Stage "lfd": one short long recording (two OACs): the object in the hand from phase differences and
-the pick-up / put-down events (`lfd_demo_fig8.png`; experiments.lfd_demonstration).
+Stage "lfd": one short long recording (two OACs): the object in the hand from phase differences,
+the pick-up / put-down events and the CHCRF label and Z(x) of each period (`lfd_demo_fig8.png`;
+experiments.lfd_demonstration).
 """
 from __future__ import annotations
 
