@@ -63,8 +63,8 @@ def _period_labels(ax, first, fps: float) -> None:
             i, j = np.unravel_index(np.argmax(lj), lj.shape)
             lines.append(f"{name}: {ACTIONS[i]} {OBJECTS[j]} {np.exp(lj[i, j]):.2f}")
         lines.append(f"Z = {np.exp(found.log_z[k]):.2g}")
-        ax.text((a + b) / 2 / fps, 3.25, "\n".join(lines), ha="center", va="bottom", fontsize=5.5, color="tab:blue")
-        ax.plot([a / fps, b / fps], [3.2, 3.2], color="tab:blue", lw=1)
+        ax.text((a + b) / 2 / fps, 3.55, "\n".join(lines), ha="center", va="bottom", fontsize=5.5, color="tab:blue")
+        ax.plot([a / fps, b / fps], [3.5, 3.5], color="tab:blue", lw=1)
 
 
 def object_in_hand(first, fps: float) -> plt.Figure:
@@ -85,15 +85,21 @@ def object_in_hand(first, fps: float) -> plt.Figure:
     ax.fill_between(t, 0, 0.8 * raw, step="post", color="tab:orange", alpha=0.7, label="raw (mask found, hand moved)")
     ax.fill_between(t, 0, 0.8 * (~first["decided"]), step="post", color="0.85", alpha=0.7,
                     label="undecided (hand still or lost)")
-    for a, b, act, obj in zip(rec.pickup_frames, rec.putdown_frames, rec.event_action, rec.event_object):
-        ax.text((a + b) / 2 / fps, 3.0, f"{ACTIONS[act]} {OBJECTS[obj]}", ha="center", fontsize=7)
+    oracle = first["labels"]["true"] if first.get("labels") else None
+    for k, (a, b, act, obj) in enumerate(zip(rec.pickup_frames, rec.putdown_frames, rec.event_action,
+                                             rec.event_object)):
+        text = f"{ACTIONS[act]} {OBJECTS[obj]}"
+        if oracle is not None:  # the CHCRF on the true period: what a perfect temporal segmentation would give
+            i, j = np.unravel_index(np.argmax(oracle.log_joint[k]), oracle.log_joint[k].shape)
+            text += f"\nCHCRF on it: {ACTIONS[i]} {OBJECTS[j]} {np.exp(oracle.log_joint[k][i, j]):.2f}"
+        ax.text((a + b) / 2 / fps, 2.95, text, ha="center", va="bottom", fontsize=6)
     _period_labels(ax, first, fps)
     ax.set_yticks([0.4, 1.45, 2.5], ["raw", "filtered", "truth"])
     ax.set_xlabel("time (s)")
-    ax.set_ylim(0, 4.3 if first.get("labels") else 3.3)
+    ax.set_ylim(0, 4.6 if first.get("labels") else 3.3)
     ax.legend(fontsize=7, loc="upper right", ncol=4, bbox_to_anchor=(1, -0.25))
     ax.set_title("object in hand over the first long recording (LfD 2009 Fig. 8); blue, top: the CHCRF label "
-                 "of each found period", fontsize=9)
+                 "(eq. 9, then with eq. 10's history) and Z(x) of each found period", fontsize=9)
     fig.tight_layout()
     return fig
 
