@@ -7,8 +7,8 @@ import pytest
 from scipy import ndimage
 from scipy.ndimage import binary_erosion, gaussian_filter
 
-from hog_jax.phase_segmentation import (LogRatio, gradient_phase, object_masks, segment_objects, stereo_log_ratio,
-                                       temporal_log_ratio)
+from hog_jax.phase_segmentation import (_CHUNK, LogRatio, gradient_phase, object_masks, segment_objects,
+                                       stereo_log_ratio, temporal_log_ratio)
 
 H, W, T = 48, 64, 4
 HALF = (10, 11)
@@ -378,7 +378,6 @@ def test_segment_objects_in_chunks_of_frames(scene):
     """`segment_objects` computes the stereo cue in chunks of frames (`_in_chunks`, padded to whole
     chunks): over more frames than a chunk, not a multiple of it, the cues are still those of the
     full-frame pieces, and a frame's values do not depend on how many frames come with it."""
-    from hog_jax.phase_segmentation import _CHUNK
     left, right, hand_l, hand_r, *_ = scene
     order = np.arange(_CHUNK + 3) % T  # the scene's frames again and again: 2 chunks, the second padded
     left, right, hand_l, hand_r = left[order], right[order], hand_l[order], hand_r[order]
