@@ -20,6 +20,8 @@ the same sequences, timed from the (B, T, D) frames to the result, median of rep
 * dynamax `GaussianHMM.marginal_log_prob` / `smoother` (vmapped, jitted): what a dynamax user writes.
 * hmmlearn `GaussianHMM.score` / `predict_proba` on all sequences in one call with `lengths` (C,
   float64; rows of the end-state pseudo-states are renormalised, since hmmlearn has no end state).
+* online recognition (`experiments.bench.online_stage`): ms per frame of a live stream (2 actions x 1
+  stream) and the number of vmapped streams one core keeps at 25 fps.
 The anchors have no end constraint: they skip one final logsumexp over a subset, a negligible saving.
 float32 everywhere except hmmlearn, which is float64 only: its ratios use our float64 timings.
 """
@@ -27,11 +29,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
-import os
-import subprocess
-import sys
-import tempfile
 import time
 
 import jax
@@ -39,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import phmm_jax as P
+from experiments.bench.online_stage import online_stage
 from experiments.bench.timing import Timing, time_call, time_interleaved
 from experiments.config import markdown_table, parse_config
 from experiments.data.reaching import movements_at, raster_targets
@@ -256,99 +254,6 @@ def hmmlearn_stage(cfg: BenchConfig, hmm, X_np, table: Table) -> dict:
     return out
 
 
-ONLINE_FPS = 25.0  # a video tracker's frame rate: the real-time budget of one frame is 40 ms
-ONLINE_STREAMS = (16, 64, 256, 1024)  # vmapped streams timed on one core
-
-
-def online_stream(cfg: BenchConfig, X_rec: np.ndarray, rest_frames: int = 30) -> tuple[np.ndarray, float]:
-    """A recorded stream of the first two recognition movements with rests before, between and after
-    (the movement's first frame held, plus marker noise), and the detector's threshold: a tenth of
-    the movements' largest displacement from rest."""
-    rng = np.random.default_rng(cfg.seed + 2)
-    parts = []
-    for move in X_rec[:2]:
-        parts += [move[0] + 0.002 * rng.normal(size=(rest_frames, move.shape[-1])), move]
-    parts.append(X_rec[1, -1] + 0.002 * rng.normal(size=(rest_frames, X_rec.shape[-1])))
-    threshold = 0.1 * float(max(np.max(np.linalg.norm(m - m[0], axis=-1)) for m in X_rec[:2]))
-    return np.concatenate(parts).astype(np.float32), threshold
-
-
-def online_stage(cfg: BenchConfig, hmm_cfg) -> dict:
-    """Online recognition (BMVC §5.4): 2 actions (the recognition workload's PHMMs, 5^2 candidates φ
-    each) x 1 stream, the jitted per-frame step fed frame by frame as a live loop would (each frame's
-    result ready before the next, median over repeats of the stream); the events it reports and the
-    refinement by `recognize` per movement; and, in a subprocess pinned to one core (taskset), how
-    many vmapped streams one core keeps at 25 fps."""
-    from phmm_jax.online import _online_step_jit
-
-    phmms, X_rec = recognition_workload(cfg, hmm_cfg)
-    stream, threshold = online_stream(cfg, X_rec)
-    rec = P.online_recognizer(phmms, threshold)
-    frames = jnp.asarray(stream)
-
-    def live_loop():
-        state = P.init_online(rec)
-        for x in frames:
-            state, out = _online_step_jit(rec, state, x)
-            jax.block_until_ready(out)
-        return state.t
-
-    loop = time_call(live_loop, max(3, cfg.repeats // 2))
-    ms_per_frame = loop.median_s * 1e3 / len(stream)
-    start = time.perf_counter()
-    events = P.run_online(rec, stream)  # the scan, then one recognize per movement (first call compiles)
-    first_run_s = time.perf_counter() - start
-    refine = time_call(lambda: P.run_online(rec, stream), 1, warmup=None)
-    print(f"{'ours online step (2 actions x 25 phi, 1 stream)':48s} {ms_per_frame:9.3f} ms/frame   "
-          f"compile+first ~{loop.first_s - loop.median_s:6.2f} s")
-    print(f"{'ours run_online (scan + refinement)':48s} {refine.median_s * 1e3:9.1f} ms for {len(stream)} frames, "
-          f"{len(events.found)} movements, labels {events.label.tolist()} (first call {first_run_s:.1f} s)")
-    with tempfile.TemporaryDirectory() as folder:
-        paths = []
-        for k, phmm in enumerate(phmms):
-            paths.append(os.path.join(folder, f"phmm{k}.npz"))
-            P.save(paths[k], phmm)
-        np.save(os.path.join(folder, "stream.npy"), stream)
-        code = ("from experiments.bench.bench_hmm import online_core_worker; "
-                f"online_core_worker({paths!r}, {os.path.join(folder, 'stream.npy')!r}, {threshold!r}, {cfg.repeats})")
-        done = subprocess.run(["taskset", "-c", str(min(os.sched_getaffinity(0))), sys.executable, "-c", code],
-                              capture_output=True, text=True, check=True)
-    per_stream = json.loads(done.stdout.strip().splitlines()[-1])
-    ms = {int(k): v for k, v in per_stream.items()}
-    budget = 1e3 / ONLINE_FPS  # never extrapolated upwards: S that met the budget, or S scaled down to it
-    streams = max([n for n in ms if ms[n] <= budget] + [int(n * budget / ms[n]) for n in ms if ms[n] > budget])
-    for n, value in sorted(ms.items()):
-        print(f"{'ours online step, ' + str(n) + ' streams (vmap, 1 core)':48s} {value:9.3f} ms/frame")
-    print(f"{'streams one core keeps at 25 fps':48s} {streams:9d}")
-    return {"online_ms_per_frame": ms_per_frame, "online_compile_s": loop.first_s - loop.median_s,
-            "online_stream_frames": len(stream), "online_movements_found": int(np.sum(events.found)),
-            "online_run_ms": refine.median_s * 1e3,
-            **{f"online_ms_per_frame_{n}_streams_1_core": value for n, value in sorted(ms.items())},
-            "online_streams_per_core_realtime": streams}
-
-
-def online_core_worker(paths, stream_path, threshold, repeats):
-    """Runs in the pinned subprocess of `online_stage`: prints {S: ms per frame of S vmapped streams} as JSON."""
-    enable_compilation_cache()
-    from phmm_jax.online import _online_step_batch_jit
-
-    rec = P.online_recognizer([P.load(p) for p in paths], threshold)
-    stream = np.load(stream_path)
-    out = {}
-    for n in ONLINE_STREAMS:
-        frames = jnp.asarray(np.stack([np.roll(stream, 7 * s, axis=0) for s in range(n)], axis=1))  # (T, S, D)
-
-        def loop():
-            states = P.init_online(rec, n)
-            for x in frames[:50]:
-                states, result = _online_step_batch_jit(rec, states, x)
-                jax.block_until_ready(result)
-            return states.t
-
-        out[n] = time_call(loop, max(3, repeats // 2)).median_s * 1e3 / 50
-    print(json.dumps(out))
-
-
 RATIOS = {  # ratio key -> (ours, anchor)
     "ratio_loglik_vs_dynamax": ("loglik_seq_per_s", "dynamax_filter_seq_per_s"),
     "ratio_posterior_vs_dynamax": ("posterior_seq_per_s", "dynamax_smoother_seq_per_s"),
@@ -385,7 +290,8 @@ def main(argv=None) -> dict:
     results = {"batch": cfg.batch, "n_frames": cfg.n_frames, "n_pseudo_states": cfg.n_states * cfg.max_duration,
                "dim": X_np.shape[-1], "device": str(jax.devices()[0]),
                **throughput_stage(cfg, hmm, X_np, table), **em_recognition_stage(cfg, hmm, hmm_cfg, X_np),
-               **hmmlearn_stage(cfg, hmm, X_np, table), **online_stage(cfg, hmm_cfg)}
+               **hmmlearn_stage(cfg, hmm, X_np, table),
+               **online_stage(recognition_workload(cfg, hmm_cfg)[0], cfg.seed, cfg.repeats)}
     results.update({k: results[a] / results[b] for k, (a, b) in RATIOS.items()})
     for key in RATIOS:
         print(f"{key:45s} {results[key]:8.2f}x")
