@@ -143,3 +143,25 @@ def test_chcrf_labels_separable_clips_and_gives_unseen_pairs_a_small_z():
     assert m["z_seen"] > m["z_unseen"] > 0
     with pytest.raises(ValueError, match="person"):
         chcrf_scores(cfg, clips._replace(person=np.zeros_like(clips.person)), person=0, periods=both)
+
+
+def test_label_periods_of_a_recording_with_history_and_an_empty_one():
+    from experiments.lfd_demonstration.features import FrameFeatures
+    from experiments.lfd_demonstration.labelling import label_periods
+    from experiments.data.video import preset
+
+    rng = np.random.default_rng(5)
+    clips = _clips(rng)
+    T = 80
+    cls = np.repeat([0, 0, 1, 1, 2, 2, 2, 2], 10)  # frames 20-39 look like class 1, 40-79 like class 2
+    x = lambda d: (cls[:, None] + 0.3 * rng.normal(size=(T, d))).astype(np.float32)  # noqa: E731
+    feats = FrameFeatures(x(2), x(3), x(5), x(4), np.ones(T, bool), np.ones(T, bool), np.ones(T, bool))
+    hand = rng.uniform(0, 100, (T, 2))
+    settings = preset("quick")  # 10 fps: every frame is a feature frame
+    got = label_periods(Config(crf_max_iter=30), settings, clips, 99, feats, hand, np.array([20, 45]),
+                        np.array([40, 80]), 1.0)
+    np.testing.assert_array_equal(best_pairs(got.log_joint), [[1, 1], [2, 2]])
+    assert got.log_joint_history.shape == (2, 3, 3) and np.isfinite(got.log_z).all()
+    np.testing.assert_allclose(got.log_joint_history[0], got.log_joint[0], atol=1e-5)  # no history before it
+    empty = label_periods(Config(), settings, clips, 99, feats, hand, np.zeros(0, int), np.zeros(0, int), 1.0)
+    assert empty.log_joint.shape == (0, 3, 3) and empty.log_z.shape == (0,)
