@@ -131,12 +131,13 @@ def test_chcrf_labels_separable_clips_and_gives_unseen_pairs_a_small_z():
     test = _clips(rng, persons=1, reps=1)  # one clip of each seen OAC, by a new person
     mixed = test._replace(object_hog=test.object_hog[[2, 0, 1]])  # actions 0, 1, 2 with objects 2, 0, 1: unseen
     both = OACData(*(np.concatenate([a, b]) for a, b in zip(test, mixed)))
-    log_joint, log_z = chcrf_scores(cfg, clips, person=99, periods=both)
+    log_joint, log_z, log_z_sequence = chcrf_scores(cfg, clips, person=99, periods=both)
     np.testing.assert_array_equal(best_pairs(log_joint[:3]), [[0, 0], [1, 1], [2, 2]])
     assert np.all(np.isfinite(log_z)) and log_z[:3].min() > log_z[3:].max() + 2.0
+    assert np.all(log_z <= np.log(1 / 3) + 1e-4) and np.all(log_z_sequence <= log_z + 1e-4)  # Z <= max K
     truth = np.array([[0, 0], [1, 1], [2, 2], [0, 2], [1, 0], [2, 1]])
-    labelled = [{"found": PeriodLabels(log_joint, log_z, log_joint), "found_truth": truth,
-                 "true": PeriodLabels(log_joint, log_z, log_joint), "true_truth": truth}]
+    labels = PeriodLabels(log_joint, log_z, log_joint, log_z_sequence)
+    labelled = [{"found": labels, "found_truth": truth, "true": labels, "true_truth": truth}]
     m = label_metrics(labelled)
     # decisive evidence beats the co-occurrence prior: the unseen pairs are labelled right too, at a low Z
     assert m["oac_correct_rate"] == 1.0 and m["z_seen_above_unseen"] and m["oacs"] == 6

@@ -29,7 +29,7 @@ class Config:
     min_duration_s: float = 1.0        # shorter "object in hand" periods are removed (LfD §III-D)
     event_tolerance_s: float = 2.0     # a found period matches a true one it overlaps; errors beyond this are flagged
     n_persons: int = 0                 # persons of the video preset; 0: the preset's (clips need 3 + skin persons)
-    clip_repetitions: int = 1          # clips per person and OAC through the front end (the paper: 5; 1.5-2 min each here)
+    clip_repetitions: int = 1          # clips per person and OAC through the front end (the paper: 5; ~1.5 min each)
     feature_fps: float = 10.0          # OAC features resampled to this rate (the OAC study's)
     n_runs: int = 9                    # jackknife runs of the OAC tables (LfD: 9, median (max))
     crf_max_iter: int = 100            # L-BFGS iterations of every CRF (early stopping on a validation person)

@@ -62,7 +62,7 @@ def _period_labels(ax, first, fps: float) -> None:
         for name, lj in (("eq. 9", found.log_joint[k]), ("+ history", found.log_joint_history[k])):
             i, j = np.unravel_index(np.argmax(lj), lj.shape)
             lines.append(f"{name}: {ACTIONS[i]} {OBJECTS[j]} {np.exp(lj[i, j]):.2f}")
-        lines.append(f"Z = {np.exp(found.log_z[k]):.2g}")
+        lines.append(f"Z = {np.exp(found.log_z[k]):.2g} ({np.exp(found.log_z_sequence[k]):.2g} over all labellings)")
         ax.text((a + b) / 2 / fps, 3.55, "\n".join(lines), ha="center", va="bottom", fontsize=5.5, color="tab:blue")
         ax.plot([a / fps, b / fps], [3.5, 3.5], color="tab:blue", lw=1)
 
