@@ -63,8 +63,10 @@ def _period_labels(ax, first, fps: float) -> None:
             i, j = np.unravel_index(np.argmax(lj), lj.shape)
             lines.append(f"{name}: {ACTIONS[i]} {OBJECTS[j]} {np.exp(lj[i, j]):.2f}")
         lines.append(f"Z = {np.exp(found.log_z[k]):.2g} ({np.exp(found.log_z_sequence[k]):.2g} over all labellings)")
-        ax.text((a + b) / 2 / fps, 3.55, "\n".join(lines), ha="center", va="bottom", fontsize=5.5, color="tab:blue")
-        ax.plot([a / fps, b / fps], [3.5, 3.5], color="tab:blue", lw=1)
+        y = 3.5 + 0.75 * (k % 2)  # alternate rows, so that the labels of adjacent short periods do not overlap
+        ax.text((a + b) / 2 / fps, y + 0.05, "\n".join(lines), ha="center", va="bottom", fontsize=5.5,
+                color="tab:blue")
+        ax.plot([a / fps, b / fps], [y, y], color="tab:blue", lw=1)
 
 
 def object_in_hand(first, fps: float) -> plt.Figure:
@@ -77,7 +79,7 @@ def object_in_hand(first, fps: float) -> plt.Figure:
     for a, b in zip(rec.pickup_frames, rec.putdown_frames):
         truth[a:b + 1] = True
     t = np.arange(T) / fps
-    fig, ax = plt.subplots(figsize=(12, 3.6))
+    fig, ax = plt.subplots(figsize=(max(12.0, T / fps / 2.5), 4.2))
     ax.fill_between(t, 2.1, 2.1 + 0.8 * truth, step="post", color="k", alpha=0.7, label="truth")
     ax.fill_between(t, 1.05, 1.05 + 0.8 * periods.in_hand, step="post", color="tab:blue", alpha=0.7,
                     label="filtered (periods)")
@@ -96,7 +98,7 @@ def object_in_hand(first, fps: float) -> plt.Figure:
     _period_labels(ax, first, fps)
     ax.set_yticks([0.4, 1.45, 2.5], ["raw", "filtered", "truth"])
     ax.set_xlabel("time (s)")
-    ax.set_ylim(0, 4.6 if first.get("labels") else 3.3)
+    ax.set_ylim(0, 5.4 if first.get("labels") else 3.3)
     ax.legend(fontsize=7, loc="upper right", ncol=4, bbox_to_anchor=(1, -0.25))
     ax.set_title("object in hand over the first long recording (LfD 2009 Fig. 8); blue, top: the CHCRF label "
                  "(eq. 9, then with eq. 10's history) and Z(x) of each found period", fontsize=9)
