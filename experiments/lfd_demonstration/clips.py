@@ -10,7 +10,7 @@ import functools
 import hashlib
 import inspect
 import json
-import sys
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -40,17 +40,20 @@ def cut_recording(rec: video.Recording, T: int) -> video.Recording:
 @functools.cache  # once per process: a file edited during a run does not split its cache
 def _source_digest() -> str:
     """The code that makes a clip's features: `features`, `clip_features`, the front end's functions (of
-    `stages` and of the video study) and every hog_jax module, so an edit of any of them never reuses
-    stale features (edits of the tables, labels, report or figures keep the cache)."""
+    `stages` and of the video study) and every file of the hog_jax package (read from disk, so every
+    entry point gets the same key), so an edit of any of them never reuses stale features (edits of
+    the tables, labels, report or figures keep the cache)."""
     import experiments.lfd_demonstration.features as features
     import experiments.lfd_demonstration.stages as stages
     import experiments.video_segmentation.stages as front
+    import hog_jax
 
-    parts = [m for name, m in sorted(sys.modules.items()) if name.startswith("hog_jax") and hasattr(m, "__file__")]
-    parts += [features, clip_features, stages.front_end, stages.hand_tracks, stages.recording_objects,
-              stages.hand_width, front.skin_stage, front.background_options, front.segmentation_start, front._pad,
-              front.camera_of]
-    return hashlib.sha1("".join(inspect.getsource(m) for m in parts).encode()).hexdigest()
+    package = sorted(Path(hog_jax.__file__).parent.glob("*.py"))
+    parts = [features, clip_features, stages.front_end, stages.hand_tracks, stages.recording_objects,
+             stages.hand_width, front.skin_stage, front.background_options, front.segmentation_start, front._pad,
+             front.camera_of]
+    text = "".join(f.read_text() for f in package) + "".join(inspect.getsource(m) for m in parts)
+    return hashlib.sha1(text.encode()).hexdigest()
 
 
 # the settings that change a clip's features (not the tables' or the long recordings')
