@@ -199,16 +199,22 @@ def peak_touch(last: np.ndarray, substeps, layout: SceneLayout):
     return last.at[:, idx].set(peak)
 
 
-def _rollout_native(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int) -> GraspOutcomes:
+def native_start(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int):
+    """The `native` backend's worlds at the start of the trials: (model, layout, batch, controller,
+    controller state, first sensor readings (B, S), ctrl view (B, U)); `_rollout_native` steps them."""
     model, layout = _scene(hand)
     b = params.goal.shape[0]
     batch = Batch(model, nsim=b, nthread=nthread)
     batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
     batch.bind("qpos")[:] = initial_qpos(model, hand, layout, params, object_start)
     batch.expand("body_gravcomp")[:] = object_gravcomp(model, layout, params.obj)
-    control = _jitted_controller(hand)
-    state = initial_state(params, layout.n_links)
-    sensordata, ctrl_view = first_readings(b, model), batch.bind("ctrl")
+    return (model, layout, batch, _jitted_controller(hand), initial_state(params, layout.n_links),
+            first_readings(b, model), batch.bind("ctrl"))
+
+
+def _rollout_native(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int) -> GraspOutcomes:
+    model, layout, batch, control, state, sensordata, ctrl_view = native_start(hand, params, object_start, nthread)
+    b = params.goal.shape[0]
     for _ in range(n_control_steps()):
         state, ctrl = control(state, jnp.asarray(sensordata, jnp.float32), params)
         ctrl_view[:] = np.asarray(ctrl)

@@ -28,29 +28,19 @@ from __future__ import annotations
 import argparse
 
 import jax.numpy as jnp
-import mujoco
 import numpy as np
-from mujoco.batch import Batch
 
 from sim.grasp_objects import GRASP_NAMES
-from sim.grasp_rollout import (SUBSTEPS, _jitted_controller, _outcomes, _scene, first_readings, initial_qpos,
-                               object_gravcomp, peak_touch)
-from sim.grasp_strategy import (APPROACH, CLOSE, CONTROL_DT_S, DONE, RETRACT, TOUCH_THRESHOLD_N, initial_state,
-                                n_control_steps, plan_trials)
+from sim.grasp_rollout import SUBSTEPS, _outcomes, native_start, peak_touch
+from sim.grasp_strategy import (APPROACH, CLOSE, CONTROL_DT_S, DONE, RETRACT, TOUCH_THRESHOLD_N, n_control_steps,
+                                plan_trials)
 from sim.robot_hands import hand_spec
 
 
 def logged_rollout(hand: str, params, object_start):
     """`grasp_rollout._rollout_native` (one thread) with a per-control-step log: (outcomes, log dict of (T, B, ...))."""
-    model, layout = _scene(hand)
+    model, layout, batch, control, state, sensordata, ctrl_view = native_start(hand, params, object_start, 1)
     b = params.goal.shape[0]
-    batch = Batch(model, nsim=b, nthread=1)
-    batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
-    batch.bind("qpos")[:] = initial_qpos(model, hand, layout, params, object_start)
-    batch.expand("body_gravcomp")[:] = object_gravcomp(model, layout, params.obj)
-    control = _jitted_controller(hand)
-    state = initial_state(params, layout.n_links)
-    sensordata, ctrl_view = first_readings(b, model), batch.bind("ctrl")
     log = {k: [] for k in ("phase", "n_corr", "goal", "palm", "touch", "found", "cpos", "obj")}
     obj = np.asarray(params.obj)
     for _ in range(n_control_steps()):
