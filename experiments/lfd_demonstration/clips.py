@@ -97,7 +97,7 @@ def clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple
     half = (round(cfg.half_window * cfg.scale(settings)),) * 2
     renderer = pick(renderer_features(rec, video.grey(rec.left), half, spec))
     person, cls, rep = key
-    out = recording_objects(cfg, settings, rec, rgb_skin, 10_000 + 1000 * person + 100 * cls + rep)
+    out = recording_objects(cfg, settings, rec, rgb_skin, 10_000 + 1000 * person + 100 * cls + rep, peer=False)
     pipeline = (pick(pipeline_features(out, spec)) if out is not None
                 else FrameFeatures(*(np.zeros_like(x) for x in renderer)))
     feats = {"pipeline": pipeline, "renderer": renderer}

@@ -49,11 +49,11 @@ def hand_tracks(positions, start: int):
     return rows(positions.skin_left), rows(positions.skin_right), tracked
 
 
-def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int) -> dict | None:
+def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bool = True) -> dict | None:
     """One long recording through the front end, then the object in the hand's window per frame, ours
     and the peer's: {"ours" / "peer": (masks (T, h, w), found (T,)), "truth", "tracked", "decided",
-    "labels" and "positions" of the front end, ...}; None when the hand is never found (a flagged
-    recording)."""
+    "labels" and "positions" of the front end, ...} ("peer" None without `peer`: the clips need only
+    ours); None when the hand is never found (a flagged recording)."""
     scale = cfg.scale(settings)
     half = (round(cfg.half_window * scale),) * 2
     labels, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + index), cfg.pad_frames)
@@ -70,7 +70,7 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int) -> dict 
                                    min_hand_motion=cfg.min_hand_motion * scale)
     gate = lambda masks, found: (masks & tracked[:, None, None], found & tracked)
     return {"ours": gate(np.asarray(ours.masks), np.asarray(ours.found)),
-            "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, removed, half)),
+            "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, removed, half)) if peer else None,
             "truth": truth_windows(rec.left_labels, hand_l, half), "tracked": tracked,
             "decided": np.asarray(ours.hand_moved) & tracked, "objects": ours, "sigma_px": sigma, "start": start,
             "grey": gl, "half": half, "hand": hand_l, "labels": labels, "positions": positions}
