@@ -19,10 +19,12 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
 * HOG: `HOGConfig` (n_bins=4, n_levels=3, layout="pyramid"|"grid", orientation="grasp"|"abs",
   weighting="magnitude"|"count", binning="hard"|"soft", normalize="global"|"cell"|"none"),
   `hog(images (B, H, W), config, mask=None)` -> (B, D), `hog_dim(config)`.
-* LSH: `build_index(key, data (N, D), n_bits, n_tables)` -> `LSHIndex`, `query(index, queries (Q, D), k)`
+* LSH: `build_index(key, data (N, D), n_bits, n_tables)` -> `LSHIndex`, `query(index, queries (Q, D), k, n_probes=0)`
   -> `LSHResult(indices, distances, n_scanned)`, `tune(key, data, held_out, k, target_recall)`,
   `recall_at_k`.
 * Exact search: `exact_search(data, queries, k)` -> `LSHResult` (the drop-in for `query`).
+* A learned metric: `fit_metric(x (N, D), labels (N,), shrinkage, n_components)` -> `LinearMetric`
+  (whitened LDA), `apply_metric(metric, x)` -> (N, D'): index and query the transformed features.
 * kNN: `fit(data, labels, orientations)` -> `KNNModel`
   (sigma from eq. 5), `predict(model, queries, k, index=None)` -> `Prediction(label, scores, quat,
   euler, indices, distances, found)`, `intra_class_sigma`, `vote`, `mean_rotation`, `euler_to_quat`,
@@ -98,6 +100,7 @@ from hog_jax.hog import HOGConfig, hog, hog_dim
 from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
                          quat_to_euler, vote)
 from hog_jax.lsh import LSHIndex, TuneResult, build_index, query, recall_at_k, tune
+from hog_jax.metric import LinearMetric, apply_metric, fit_metric
 from hog_jax.segment import (GMM, Segmentation, SkinModel, SkinStructure, crop_components, fit_gmm, fit_skin_model,
                              gmm_log_prob,
                              load_skin_model, median3, rgb_to_chroma, save_skin_model, segment, skin_log_ratio)
@@ -108,7 +111,7 @@ __all__ = [
     "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
     "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "Prediction", "TuneResult", "build_index",
     "euler_to_quat", "exact_search", "fit", "hog", "hog_dim", "intra_class_sigma", "mean_rotation",
-    "predict", "query", "quat_to_euler", "recall_at_k", "tune", "vote",
+    "predict", "query", "quat_to_euler", "recall_at_k", "tune", "vote", "LinearMetric", "apply_metric", "fit_metric",
     "BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "run_background",
     "run_background_batch", "Blobs", "Ellipse", "EllipseAxes", "connected_blobs", "ellipse_axes", "mask_ellipse",
     "weighted_moments", "BICScores", "ColourFit", "ColourModels", "ColourStructure", "bic", "fit_gmm_bic",

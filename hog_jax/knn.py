@@ -212,9 +212,10 @@ def vote(labels: Int[ArrayLike, "Q k"], distances: Float[ArrayLike, "Q k"], quat
 
 def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"], k: int = 10,
             index: LSHIndex | None = None, n_per_table: int = 64, n_tables: int | None = None,
-            max_rerank: int | None = None) -> Prediction:
+            max_rerank: int | None = None, n_probes: int = 0) -> Prediction:
     """Class and orientation of each query (Q, D): neighbours from `index` (LSH, built on
-    model.data) or exact search when None, then eqs. 3-4.
+    model.data) or exact search when None, then eqs. 3-4 (n_per_table, n_tables, max_rerank and
+    n_probes go to `hog_jax.query`).
 
     A query for which the index finds no neighbour at all is marked, not guessed: found False,
     label -1, scores 0, quat / euler NaN (no fallback to exact search; rerun those rows with
@@ -223,7 +224,7 @@ def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike,
     if index is not None:
         if index.data.shape != model.data.shape:
             raise ValueError(f"index: built on {index.data.shape} points, the model holds {model.data.shape}")
-        res = query(index, queries, k, n_per_table, n_tables, max_rerank)
+        res = query(index, queries, k, n_per_table, n_tables, max_rerank, n_probes)
     else:
         res = exact_search(model.data, queries, k)
     idx, dist = res.indices, res.distances

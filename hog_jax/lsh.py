@@ -34,6 +34,7 @@ from jaxtyping import Array, ArrayLike, Float, Int, Key
 from hog_jax._checks import check_feature_range, check_key
 from hog_jax.exact import LSHResult, check_queries, exact_search
 from lfd_common import as_array, check_int, check_real
+from lfd_common.sharding import check_mesh
 
 __all__ = ["LSHIndex", "LSHResult", "TuneResult", "build_index", "query", "recall_at_k", "tune"]
 
@@ -57,12 +58,33 @@ def _bucket(codes, n_bits: int, table_bits):
     return jnp.where(n_bits <= table_bits, codes, hashed).astype(jnp.int32)
 
 
+def _projections(x, planes, center):
+    """(n, D) points -> (n, T, K) signed distances to the hyperplanes (up to the normals' lengths)."""
+    T, K, D = planes.shape
+    return ((x - center) @ planes.reshape(T * K, D).T).reshape(x.shape[0], T, K)
+
+
+def _pack(bits):
+    """(..., K) 0/1 uint32 -> (...,) uint32 codes sum_j bit_j 2^j."""
+    return (bits << jnp.arange(bits.shape[-1], dtype=jnp.uint32)).sum(-1, dtype=jnp.uint32)
+
+
 def _codes(x, planes, center):
     """(n, D) points -> (T, n) uint32 codes."""
-    T, K, D = planes.shape
-    proj = (x - center) @ planes.reshape(T * K, D).T  # (n, T K)
-    bits = (proj > 0).reshape(x.shape[0], T, K).astype(jnp.uint32)
-    return (bits << jnp.arange(K, dtype=jnp.uint32)).sum(-1, dtype=jnp.uint32).T
+    return _pack((_projections(x, planes, center) > 0).astype(jnp.uint32)).T
+
+
+def _probe_codes(q, planes, center, n_probes: int):
+    """(D,) query -> (T, 1 + n_probes) codes: its own bucket's, then the buckets that differ in one bit,
+    the bits whose hyperplanes pass closest to the query first (query-directed probing, Lv et al. 2007,
+    restricted to single-bit perturbations)."""
+    proj = _projections(q[None], planes, center)[0]  # (T, K)
+    code = _pack((proj > 0).astype(jnp.uint32))      # (T,)
+    if n_probes == 0:
+        return code[:, None]
+    closest = jnp.argsort(jnp.abs(proj), axis=-1)[:, :n_probes].astype(jnp.uint32)  # (T, P)
+    flipped = code[:, None] ^ (jnp.uint32(1) << closest)
+    return jnp.concatenate([code[:, None], flipped], axis=1)
 
 
 @partial(jax.jit, static_argnames=("chunk",))
@@ -86,18 +108,27 @@ def _build(key, data, planes, table_bits, chunk: int):
 
 
 def build_index(key: Key[Array, ""], data: Float[ArrayLike, "N D"], n_bits: int, n_tables: int,
-                table_bits: int = 20) -> LSHIndex:
+                table_bits: int = 20, *, mesh=None) -> LSHIndex:
     """Build an LSH index of `data` (N, D) with `n_tables` tables of `n_bits` hyperplanes each.
 
     key: a `jax.random` key. table_bits: log2 of the hash-table size H (1..31, default 20).
     ValueError naming the argument for a key that is not a `jax.random` key, empty or non-finite data,
     |data| > 2^60 / sqrt(D) (squared distances would overflow float32) or parameters out of range.
+    mesh: a `jax.sharding.Mesh` (or None: one device): the rows are split over its devices, each
+    with its own tables, and a `lsh_sharded.ShardedLSHIndex` is returned, which `query` accepts
+    (queries broadcast, the shards' top k merged; see `hog_jax.lsh_sharded`). With several processes
+    each passes its own rows (ids count the processes' rows in order).
     """
+    mesh = check_mesh(mesh)
     check_key(key, "key")
     data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     check_int(n_bits, "n_bits", min_value=1, max_value=32)
     check_int(n_tables, "n_tables", min_value=1)
     check_int(table_bits, "table_bits", min_value=1, max_value=31)
+    if mesh is not None:
+        from hog_jax.lsh_sharded import build_sharded_index  # it builds on this module
+
+        return build_sharded_index(key, data, n_bits, n_tables, table_bits, mesh)
     N, D = data.shape
     k_planes, k_perm = jax.random.split(key)
     planes = jax.random.normal(k_planes, (n_tables, n_bits, D), jnp.float32)
@@ -105,23 +136,25 @@ def build_index(key: Key[Array, ""], data: Float[ArrayLike, "N D"], n_bits: int,
     return _build(k_perm, jnp.asarray(data), planes, jnp.int32(table_bits), chunk)
 
 
-def _candidates(index: LSHIndex, q, n_per_table: int, n_tables_used, n_rerank: int):
+def _candidates(index: LSHIndex, q, n_per_table: int, n_tables_used, n_rerank: int, n_probes: int):
     """(D,) query -> (R,) distinct candidate ids, ascending, N-padded; and how many were distinct.
 
-    The T C bucket slots are compacted (cumsum + scatter, in table order) into a buffer of
-    G = min(T C, 4 R) slots, which is then sorted and de-duplicated: the sort costs O(G log G), not
-    O(T C log T C). When more than G slots are filled, the last tables' candidates are dropped.
+    Per table the query's bucket and `n_probes` neighbouring buckets (`_probe_codes`) are read, C slots
+    each. The T (1 + P) C slots are compacted (cumsum + scatter, in table order) into a buffer of
+    G = min(T (1 + P) C, 4 R) slots, which is then sorted and de-duplicated: the sort costs O(G log G),
+    not O(T C log T C). When more than G slots are filled, the last tables' candidates are dropped.
     """
     T, K, _ = index.planes.shape
     N = index.data.shape[0]
-    qb = _bucket(_codes(q[None], index.planes, index.center)[:, 0], K, index.table_bits)  # (T,)
+    qb = _bucket(_probe_codes(q, index.planes, index.center, n_probes), K, index.table_bits)  # (T, 1 + P)
     lo = jax.vmap(lambda keys, b: jnp.searchsorted(keys, b, side="left"))(index.keys, qb)
     hi = jax.vmap(lambda keys, b: jnp.searchsorted(keys, b, side="right"))(index.keys, qb)
-    pos = lo[:, None] + jnp.arange(n_per_table)  # (T, C)
-    ok = ((pos < hi[:, None]) & (jnp.arange(T)[:, None] < n_tables_used)).reshape(-1)
-    ids = jnp.take_along_axis(index.order, jnp.minimum(pos, N - 1), axis=1).reshape(-1)
-    G = min(T * n_per_table, 4 * n_rerank)
-    if G < T * n_per_table:
+    pos = lo[..., None] + jnp.arange(n_per_table)  # (T, 1 + P, C)
+    ok = ((pos < hi[..., None]) & (jnp.arange(T)[:, None, None] < n_tables_used)).reshape(-1)
+    ids = jax.vmap(lambda order, p: order[p])(index.order, jnp.minimum(pos, N - 1)).reshape(-1)
+    slots = ids.shape[0]
+    G = min(slots, 4 * n_rerank)
+    if G < slots:
         slot = jnp.cumsum(ok) - 1
         ids = jnp.full((G,), N, ids.dtype).at[jnp.where(ok, slot, G)].set(ids, mode="drop")
     else:
@@ -135,9 +168,9 @@ def _candidates(index: LSHIndex, q, n_per_table: int, n_tables_used, n_rerank: i
     return ids, n_distinct
 
 
-def _query_one(index: LSHIndex, q, k: int, n_per_table: int, n_tables_used, n_rerank: int):
+def _query_one(index: LSHIndex, q, k: int, n_per_table: int, n_tables_used, n_rerank: int, n_probes: int):
     N = index.data.shape[0]
-    ids, _ = _candidates(index, q, n_per_table, n_tables_used, n_rerank)
+    ids, _ = _candidates(index, q, n_per_table, n_tables_used, n_rerank, n_probes)
     valid = ids < N
     diff = index.data[jnp.minimum(ids, N - 1)] - q
     d2 = jnp.where(valid, jnp.sum(diff * diff, axis=-1), jnp.inf)
@@ -147,29 +180,39 @@ def _query_one(index: LSHIndex, q, k: int, n_per_table: int, n_tables_used, n_re
             valid.sum().astype(jnp.int32))
 
 
-@partial(jax.jit, static_argnames=("k", "n_per_table", "n_rerank", "chunk"))
-def _query(index: LSHIndex, queries, k: int, n_per_table: int, n_tables_used, n_rerank: int, chunk: int):
+@partial(jax.jit, static_argnames=("k", "n_per_table", "n_rerank", "chunk", "n_probes"))
+def _query(index: LSHIndex, queries, k: int, n_per_table: int, n_tables_used, n_rerank: int, chunk: int,
+           n_probes: int = 0):
     Q, D = queries.shape
     n_chunks = -(-Q // chunk)
     padded = jnp.concatenate([queries, jnp.broadcast_to(queries[:1], (n_chunks * chunk - Q, D))])
     one = partial(_query_one, index, k=k, n_per_table=n_per_table, n_tables_used=n_tables_used,
-                  n_rerank=n_rerank)
+                  n_rerank=n_rerank, n_probes=n_probes)
     idx, dist, n = jax.lax.map(jax.vmap(one), padded.reshape(n_chunks, chunk, D))
     return LSHResult(idx.reshape(-1, k)[:Q], dist.reshape(-1, k)[:Q], n.reshape(-1)[:Q])
 
 
 def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"], k: int = 10,
-          n_per_table: int = 64, n_tables: int | None = None, max_rerank: int | None = None) -> LSHResult:
+          n_per_table: int = 64, n_tables: int | None = None, max_rerank: int | None = None,
+          n_probes: int = 0) -> LSHResult:
     """The k approximate nearest neighbours of each query (Q, D) (or one (D,) query).
 
-    n_per_table: candidate slots per table and query (C; a larger bucket contributes a random C of
-    its points). n_tables: use only the first tables (default all). max_rerank: re-rank at most this
-    many distinct candidates (R; default T C, i.e. all; when more are found, the R with the smallest
-    ids are kept and n_scanned reports R); at most 4 R bucket slots are collected, in table order.
+    n_per_table: candidate slots per bucket read and query (C; a larger bucket contributes a random C of
+    its points). n_tables: use only the first tables (default all). n_probes: per table, also read the
+    P buckets whose codes differ from the query's in one bit, the bits of the hyperplanes nearest the
+    query first (multi-probe LSH, Lv et al. 2007; 0 <= P <= K; 0: the query's bucket only).
+    max_rerank: re-rank at most this many distinct candidates (R; default T (1 + P) C, i.e. all; when
+    more are found, the R with the smallest ids are kept and n_scanned reports R); at most 4 R bucket
+    slots are collected, in table order.
     Returns an `LSHResult`; a query whose buckets hold fewer than k points gets -1 / inf in the
     missing places (a query with none at all: every index -1). ValueError naming the argument when
     n_tables * n_per_table < k (the candidate slots cannot hold k neighbours: `n_per_table`).
+    A sharded index (`build_index(..., mesh=...)`) is queried by `lsh_sharded.query_sharded`.
     """
+    if not isinstance(index, LSHIndex):
+        from hog_jax.lsh_sharded import query_sharded  # it builds on this module
+
+        return query_sharded(index, queries, k, n_per_table, n_tables, max_rerank)
     q, single = check_queries(queries, index.data.shape[1])
     check_int(k, "k", min_value=1, max_value=index.data.shape[0])
     check_int(n_per_table, "n_per_table", min_value=1)
@@ -178,11 +221,12 @@ def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, "
     if n_tables < T:
         index = index._replace(planes=index.planes[:n_tables], keys=index.keys[:n_tables],
                                order=index.order[:n_tables])
-    slots = n_tables * n_per_table
+    n_probes = check_int(n_probes, "n_probes", min_value=0, max_value=index.planes.shape[1])
+    slots = n_tables * n_per_table * (1 + n_probes)
     _check_slots(k, n_tables, n_per_table)
     R = slots if max_rerank is None else min(slots, check_int(max_rerank, "max_rerank", min_value=k))
     chunk = max(1, min(q.shape[0], 16))
-    res = _query(index, jnp.asarray(q), k, n_per_table, jnp.int32(n_tables), R, chunk)
+    res = _query(index, jnp.asarray(q), k, n_per_table, jnp.int32(n_tables), R, chunk, n_probes)
     return LSHResult(*(a[0] for a in res)) if single else res
 
 
@@ -231,13 +275,15 @@ class TuneResult(NamedTuple):
 def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"], k: int = 10,
          target_recall: float = 0.9, n_bits_grid=(8, 10, 12, 14, 16, 18, 20),
          n_tables_grid=(1, 2, 4, 8, 12, 16, 24, 32),
-         n_per_table: int = 64, table_bits: int = 20, truth: Int[ArrayLike, "Q k"] | None = None) -> TuneResult:
+         n_per_table: int = 64, table_bits: int = 20, truth: Int[ArrayLike, "Q k"] | None = None,
+         n_probes: int = 0) -> TuneResult:
     """Pick (K, T) reaching recall@k >= target_recall on held-out `queries` (Q, D) (not in `data`)
     with the fewest distinct candidates scanned, then the re-rank buffer R: the smallest power of two
     >= the 99th percentile of distinct candidates that keeps the target (else R = T C).
 
     For each K one index with max(T grid) tables is built and the first t tables are used for each t,
-    so the grid costs one build per K. `truth` (Q, k): exact neighbour ids if already known.
+    so the grid costs one build per K. `truth` (Q, k): exact neighbour ids if already known. n_probes:
+    the multi-probe setting the index will be queried with (see `query`; at most min(n_bits_grid)).
     ValueError naming the argument for an empty grid, a grid entry out of range, a key that is not a
     `jax.random` key, or min(n_tables_grid) * n_per_table < k.
     """
@@ -251,6 +297,7 @@ def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[Arra
     n_bits_grid = _check_grid(n_bits_grid, "n_bits_grid", 32)
     n_tables_grid = _check_grid(n_tables_grid, "n_tables_grid", None)
     _check_slots(k, min(n_tables_grid), n_per_table)
+    n_probes = check_int(n_probes, "n_probes", min_value=0, max_value=min(n_bits_grid))
     if truth is None:
         truth = np.asarray(exact_search(data, q, k).indices)
     else:
@@ -263,18 +310,19 @@ def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[Arra
     for i, n_bits in enumerate(n_bits_grid):  # a grid search: one build per K
         index = build_index(jax.random.fold_in(key, i), data, n_bits, t_max, table_bits)
         for t in sorted(n_tables_grid):  # the first t tables, masked: one compiled query for all t
-            res = _query(index, qj, k, n_per_table, jnp.int32(t), t_max * n_per_table, chunk)
+            res = _query(index, qj, k, n_per_table, jnp.int32(t), t_max * n_per_table * (1 + n_probes), chunk,
+                         n_probes)
             rows.append((int(n_bits), int(t), recall_at_k(res.indices, truth), float(np.mean(res.n_scanned))))
     ok = [r for r in rows if r[2] >= target_recall]
     best = min(ok, key=lambda r: r[3]) if ok else max(rows, key=lambda r: (r[2], -r[3]))
     K, T, recall, scanned = best
-    R = T * n_per_table
+    R = T * n_per_table * (1 + n_probes)
     if ok:
         index = build_index(jax.random.fold_in(key, list(n_bits_grid).index(K)), data, K, t_max, table_bits)
-        res = query(index, q, k, n_per_table, T)
+        res = query(index, q, k, n_per_table, T, n_probes=n_probes)
         r_try = int(2 ** np.ceil(np.log2(max(k, np.percentile(np.asarray(res.n_scanned), 99)))))
         if r_try < R:
-            res = query(index, q, k, n_per_table, T, max_rerank=r_try)
+            res = query(index, q, k, n_per_table, T, max_rerank=r_try, n_probes=n_probes)
             rec = recall_at_k(res.indices, truth)
             if rec >= target_recall:
                 R, recall, scanned = r_try, rec, float(np.mean(res.n_scanned))

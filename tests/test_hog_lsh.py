@@ -154,3 +154,33 @@ def test_issue17_case15_empty_grid_and_int_key_named(setup):
         build_index(jax.random.split(jax.random.key(0), 2), data, 4, 2)
     legacy = build_index(jax.random.PRNGKey(0), data[:100], 4, 2)  # raw uint32 keys still work
     chex.assert_shape(legacy.keys, (2, 100))
+
+
+def test_multi_probe_reads_the_one_bit_neighbour_buckets(setup):
+    """With T = 1 and P probes, the candidates are the members of the query's bucket and of the P buckets
+    whose codes flip the bits of the P hyperplanes nearest the query (brute force in NumPy)."""
+    data, q, truth = setup
+    idx = build_index(jax.random.key(3), data, n_bits=5, n_tables=1)
+    planes, center = np.asarray(idx.planes[0], np.float64), np.asarray(idx.center, np.float64)
+    proj = lambda x: (x - center) @ planes.T
+    code = lambda p: ((p > 0) * (1 << np.arange(5))).sum(-1)
+    cd = code(proj(data))
+    res = query(idx, q, k=5, n_per_table=4000, n_probes=2)
+    for i in range(len(q)):
+        p = proj(q[i:i + 1])[0]
+        probes = [code(p)] + [code(p) ^ (1 << int(j)) for j in np.argsort(np.abs(p))[:2]]
+        members = np.nonzero(np.isin(cd, probes))[0]
+        assert int(res.n_scanned[i]) == len(members)
+        want = members[brute(data[members], q[i:i + 1], min(5, len(members)))[0]]
+        np.testing.assert_array_equal(np.asarray(res.indices[i][:len(want)]), want)
+    # more probes never lose recall on the same index, and P = 0 is the plain query
+    idx = build_index(jax.random.key(4), data, n_bits=10, n_tables=4)
+    recalls = [recall_at_k(query(idx, q, 10, 64, n_probes=p).indices, truth) for p in (0, 2, 6)]
+    assert recalls[0] < recalls[1] <= recalls[2]
+    np.testing.assert_array_equal(np.asarray(query(idx, q, 10, 64).indices),
+                                  np.asarray(query(idx, q, 10, 64, n_probes=0).indices))
+    with pytest.raises(ValueError, match="n_probes"):
+        query(idx, q, 10, 64, n_probes=11)
+    tuned = [tune(jax.random.key(5), data, q, k=10, target_recall=1.0, n_bits_grid=(8,), n_tables_grid=(2,),
+                  n_probes=p) for p in (0, 3)]
+    assert tuned[1].recall > tuned[0].recall and tuned[1].max_rerank == 2 * 64 * 4
