@@ -71,6 +71,25 @@ def test_diagnostic_features_by_hand():
     assert height == pytest.approx(0.5) and reach == pytest.approx(0.5) and speed == pytest.approx(0.5 * 60)
 
 
+def test_regression_baseline_recovers_an_affine_finger_map():
+    """Movements whose index tip at the hold (the sample farthest from the start) is an affine map of
+    the target: the baseline, fitted per action, returns the targets exactly; the frames around the hold
+    carry other values so that a wrong hold frame would show."""
+    rng = np.random.default_rng(0)
+    targets = np.c_[rng.uniform(-0.3, 0.5, (40, 2)), np.full(40, tt.TABLE_HEIGHT_M)]
+    action = np.arange(40) % 2
+    A = np.array([[[0.9, 0.1, 0.0], [-0.2, 1.1, 0.3]], [[1.2, 0.0, 0.1], [0.1, 0.8, -0.4]]])  # (actions, 2, 3)
+    markers = np.zeros((40, 5, 7, 3))
+    markers[:, 1:, 4:7] = rng.normal(0, 0.01, (40, 4, 3, 3))
+    markers[:, 2, 4:7] += 1.0  # the hold: the hand centre is farthest from its start here
+    markers[:, 2, 5] = np.einsum("bij,bj->bi", A[action].transpose(0, 2, 1), targets[:, :2]) + [0.1, 0.2, 0.3]
+    X = markers.reshape(40, 5, 21)
+    np.testing.assert_allclose(E.final_markers(X), markers[:, 2, 5])
+    train, test = slice(0, 30), slice(30, 40)
+    pred = E.regression_baseline(X[train], targets[train], action[train], X[test], action[test])
+    np.testing.assert_allclose(pred, targets[test], atol=1e-9)
+
+
 def test_config_validation():
     with pytest.raises(ValueError, match="noise_cm"):
         E.Config(noise_cm=(5.0,))
@@ -89,7 +108,8 @@ def test_smoke_run(tmp_path):
     for key in ("synthesis_error_cm_inner", "synthesis_error_cm_all", "param_error_cm_inner", "param_error_cm_all",
                 "classification_rate_phmm_2x2", "classification_rate_phmm_3x3", "classification_rate_hmm",
                 "classification_rate_diagnostic_baseline", "n_test_sequences", "runtime_s",
-                "robot_reach_error_cm_mean", "robot_reach_error_cm_max"):
+                "robot_reach_error_cm_mean", "robot_reach_error_cm_max", "param_error_cm_regression_all",
+                "param_error_cm_regression_hand_inner", "param_error_cm_noise_regression_10cm"):
         assert np.isfinite(saved[key]), key
     assert saved["n_test_sequences"] == 18
     for key in ("param_error_cm_noise", "param_error_cm_noise_2x2", "classification_rate_noise",

@@ -18,10 +18,10 @@ tested on a 5 x 7 raster. Measured:
 from experiments.phmm_tabletop.config import PAPER, PRESETS, Config
 from experiments.phmm_tabletop.demo import demo_stage
 from experiments.phmm_tabletop.measures import (RobotSetup, diagnostic_baseline, diagnostic_features, dtw_rms,
-                                                hand_centre, inner_mask, local_maxima, loglik_surface,
-                                                phi_to_position, robot_metrics, synthesis_error)
+                                                final_markers, hand_centre, inner_mask, local_maxima, loglik_surface,
+                                                phi_to_position, regression_baseline, robot_metrics, synthesis_error)
 from experiments.phmm_tabletop.stages import main
 
 __all__ = ["PAPER", "PRESETS", "Config", "RobotSetup", "demo_stage", "diagnostic_baseline", "diagnostic_features",
-           "dtw_rms", "hand_centre", "inner_mask", "local_maxima", "loglik_surface", "main", "phi_to_position",
-           "robot_metrics", "synthesis_error"]
+           "dtw_rms", "final_markers", "hand_centre", "inner_mask", "local_maxima", "loglik_surface", "main", "phi_to_position",
+           "regression_baseline", "robot_metrics", "synthesis_error"]

@@ -89,6 +89,32 @@ def phi_to_position(corner_targets, phi) -> np.ndarray:
     return np.asarray(jax.vmap(lambda p: multilinear_map(jnp.asarray(corner_targets), p))(jnp.asarray(phi)))
 
 
+def final_markers(X, names=("index_tip",)) -> np.ndarray:
+    """(B, 3 M) the markers `names` of resampled movements X (B, S, 21) at the hold: the sample where
+    the hand centre is farthest from where it started (the end point before the withdrawal)."""
+    markers = np.asarray(X).reshape(*X.shape[:2], len(tt.MARKERS), 3)
+    hand = hand_centre(markers)
+    hold = np.argmax(np.linalg.norm(hand - hand[:, :1], axis=-1), axis=1)  # (B,)
+    at = markers[np.arange(len(markers)), hold]  # (B, 7, 3)
+    return at[:, [tt.MARKERS.index(n) for n in names]].reshape(len(at), -1)
+
+
+def regression_baseline(X_train, target_train, action_train, X_test, action_test,
+                        names=("index_tip",)) -> np.ndarray:
+    """The baseline every PHMM position figure is reported beside (issue 21): per action, an ordinary
+    least-squares affine map from the final finger position (`final_markers`; other markers with
+    `names`) to the table position (x, y), fitted on the training movements. Returns (B_test, 3)
+    predicted positions (z: the training targets' table height)."""
+    f_train, f_test = final_markers(X_train, names), final_markers(X_test, names)
+    target_train = np.asarray(target_train, float)
+    pred = np.tile(target_train[:1], (len(f_test), 1))
+    affine = lambda f: np.concatenate([f, np.ones((len(f), 1))], axis=1)  # noqa: E731
+    for a in np.unique(action_test):
+        coef, *_ = np.linalg.lstsq(affine(f_train[action_train == a]), target_train[action_train == a, :2], rcond=None)
+        pred[action_test == a, :2] = affine(f_test[action_test == a]) @ coef
+    return pred
+
+
 def inner_mask(rows: int, cols: int) -> np.ndarray:
     """(rows * cols,) True off the border of the raster."""
     mask = np.zeros((rows, cols), bool)

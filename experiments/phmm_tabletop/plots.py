@@ -46,12 +46,14 @@ def plot_loglik_surface(axis, surface, true_phi, n_max: int):
 
 def plot_noise(noise_cm, error_cm: dict, rate: dict, hmm_rate: dict):
     """Position error and classification rate against the noise sigma; error_cm, rate: PHMM variant
-    (e.g. "2x2", "3x3") -> {sigma: value}."""
+    (e.g. "2x2", "3x3") -> {sigma: value}; entries of error_cm without a rate are baselines."""
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.4))
     sig = np.asarray(noise_cm)
-    for g, style in zip(error_cm, ("o--", "s-", "d-", "v-.")):
-        ax1.plot(sig, [error_cm[g][s] for s in noise_cm], style, label=f"PHMM {g}")
-        ax2.plot(sig, [rate[g][s] * 100 for s in noise_cm], style, label=f"PHMM {g}")
+    for g, style in zip(error_cm, ("o--", "s-", "d-", "v-.", "x:")):
+        label = f"PHMM {g}" if g in rate else g  # a baseline without a classification rate
+        ax1.plot(sig, [error_cm[g][s] for s in noise_cm], style, label=label)
+        if g in rate:
+            ax2.plot(sig, [rate[g][s] * 100 for s in noise_cm], style, label=label)
     ax2.plot(sig, [hmm_rate[s] * 100 for s in noise_cm], "^:", label="classical HMMs")
     ax1.set_xlabel("noise sigma (cm)")
     ax1.set_ylabel("position error (cm)")

@@ -77,7 +77,7 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
     rng = np.random.default_rng(cfg.seed + 1)
     test = d.test
     rate, err, labels, hmm_rate, hmm_correct = {g: {} for g in GRIDS}, {g: {} for g in GRIDS}, {}, {}, {}
-    aware_rate, aware_err, sigma_estimate = {}, {}, {}
+    aware_rate, aware_err, sigma_estimate, regression_err = {}, {}, {}, {}
     for sigma in progress(cfg.noise_cm, desc="noise levels"):
         X = d.X_test + (sigma / 100) * rng.standard_normal(d.X_test.shape) if sigma > 0 else d.X_test
         for grid in GRIDS:
@@ -88,6 +88,8 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
                                               axis=-1) * 100
             rate[grid][sigma] = np.mean(label == test.action)
             labels[grid, sigma] = label
+        regression = ms.regression_baseline(d.X_train, d.train.target, d.train.action, X, test.action)
+        regression_err[sigma] = np.linalg.norm(regression - test.target, axis=-1) * 100
         # The 3x3 PHMMs with the noise term Σ + σ̂² I, σ̂² read off the test movements (phmm_jax.noise).
         variance = P.estimate_noise_variance(X)
         sigma_estimate[sigma] = 100 * np.sqrt(variance)
@@ -101,6 +103,9 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
 
     inner_seq = d.inner[d.pos_index]
     err0 = {g: err[g][0.0] for g in GRIDS}
+    hand_regression = ms.regression_baseline(d.X_train, d.train.target, d.train.action, d.X_test, test.action,
+                                             ("index_knuckle", "index_tip", "thumb_tip"))
+    hand_err = np.linalg.norm(hand_regression - test.target, axis=-1) * 100
     correct = {"phmm_2x2": labels["2x2", 0.0] == test.action, "phmm_3x3": labels["3x3", 0.0] == test.action,
                "hmm": hmm_correct[0.0]}
     noise = lambda values: {f"{s:g}cm": float(values[s]) for s in cfg.noise_cm}  # noqa: E731
@@ -109,7 +114,11 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
                            "inner_2x2": float(err0["2x2"][inner_seq].mean()), "all_2x2": float(err0["2x2"].mean()),
                            "noise": noise({s: e.mean() for s, e in err["3x3"].items()}),
                            "noise_2x2": noise({s: e.mean() for s, e in err["2x2"].items()}),
-                           "noise_aware": noise({s: e.mean() for s, e in aware_err.items()})},
+                           "noise_aware": noise({s: e.mean() for s, e in aware_err.items()}),
+                           "noise_regression": noise({s: e.mean() for s, e in regression_err.items()}),
+                           **{f"{name}_{part}": float(e[mask].mean()) for name, e in
+                              (("regression", regression_err[0.0]), ("regression_hand", hand_err))
+                              for part, mask in (("inner", inner_seq), ("all", slice(None)))}},
         "noise_sigma_estimate_cm": noise(sigma_estimate),
         "classification_rate": {
             "phmm_2x2": float(rate["2x2"][0.0]), "phmm_3x3": float(rate["3x3"][0.0]), "hmm": hmm_rate[0.0],
@@ -132,7 +141,8 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
             wrong, shape, "Misclassified test movements per position (noise-free)", unit="%"),
         "noise_robustness.png": plots.plot_noise(
             cfg.noise_cm, {**{g: {s: e.mean() for s, e in err[g].items()} for g in GRIDS},
-                           "3x3, Σ + σ̂² I": {s: e.mean() for s, e in aware_err.items()}},
+                           "3x3, Σ + σ̂² I": {s: e.mean() for s, e in aware_err.items()},
+                           "regression (final finger)": {s: e.mean() for s, e in regression_err.items()}},
             {**rate, "3x3, Σ + σ̂² I": aware_rate}, hmm_rate),
     }
     return StageResult(metrics, figures)
