@@ -6,15 +6,16 @@ between control steps, and returns `GraspOutcomes`. Backends:
 
 * `native`: MuJoCo 4's `mujoco.batch.Batch` (the C engine on a thread pool; bit-identical to a serial
   `mj_step` loop). The controller reads `sensordata` (B, S) and writes the bound `ctrl` (B, U) between
-  `Batch.rollout(10)` calls (10 substeps, recording `sensordata` for the touch peaks); finished trials
+  `Batch.rollout(10)` calls (10 substeps, recording `sensordata` for `peak_touch`); finished trials
   are no longer stepped. Per-trial parked objects get
   gravity compensation through `Batch.expand("body_gravcomp")`.
 * `mjx-jax`: `mjx.put_model(m, impl="jax")`, `jax.vmap` over `mjx.Data` (and over the per-world
-  `body_gravcomp`), `lax.scan` over control steps with the controller inside the scan, `fori_loop`
-  over the 10 physics substeps. Runs on any JAX device and is differentiable. One compiled program
-  per hand and batch size (`_mjx_chunk`: every object is in each hand's scene, so all grasps share
-  it; its inputs are committed to the device so that the second call does not compile it again;
-  `experiments/bench/bench_mjx.py` measures its compile and run times). Each physics step is
+  `body_gravcomp`), `lax.scan` over control steps with the controller inside the scan, a nested
+  `lax.scan` over the 10 physics substeps (recording `sensordata` for `peak_touch`). Runs on any JAX
+  device and is differentiable. One compiled program per hand and batch size (`_mjx_chunk`: every
+  object is in each hand's scene, so all grasps share it; its inputs are committed to the device so
+  that the second call does not compile it again; `experiments/bench/bench_mjx.py` measures its
+  compile and run times). Each physics step is
   `sim.rollout.mjx_step`, whose LAPACK calls cannot deadlock XLA:CPU's thread pool (`mjx.step`'s
   can: README "Known problems"). MJX keeps the
   `robot_hands.MJX_MAX_CONTACTS` deepest candidate contacts per world; a rollout in which that many
@@ -26,8 +27,9 @@ between control steps, and returns `GraspOutcomes`. Backends:
 
 Both MuJoCo and MJX compute `sensordata` in the forward pass of a step, from the state before that
 step's integration, so every backend hands the controller the same quantities: the last substep's
-readings, with each touch sensor at its peak over the control period's 10 substeps (`peak_touch`);
-before the first step, no readings (`first_readings`).
+readings, with each touch sensor at its peak over the control period's 10 substeps and each contact
+sensor as read in the last substep that found a contact (`peak_touch`, the same function on every
+backend); before the first step, no readings (`first_readings`).
 """
 from __future__ import annotations
 
@@ -185,18 +187,29 @@ def rollout_grasps(hand: str, params: TrialParams, object_start, backend: str = 
     return _rollout_mjx(hand, params, object_start, impl="jax" if backend == "mjx-jax" else "warp")
 
 
-def peak_touch(last: np.ndarray, substeps, layout: SceneLayout):
-    """Sensor readings for the controller: the last substep's (B, S), with the touch sensors and contact
-    `found` counts (`layout.peak_sensors`, P of them) at their peak over the control period: substeps
-    is (B, SUBSTEPS, S) or the peaks (B, P). A light object pushed by the hand touches it intermittently;
-    one sample per control period misses most touches."""
-    idx = layout.peak_sensors
-    peak = substeps if substeps.ndim == 2 else substeps[:, :, idx].max(1)
-    if isinstance(last, np.ndarray):
-        out = last.copy()
-        out[:, idx] = peak
+def peak_touch(substeps, layout: SceneLayout):
+    """The controller's sensor readings (B, S) from a control period's substeps (B, K, S), numpy or jax.
+
+    The last substep's readings, except: each touch sensor at its peak over the K substeps, and each
+    (link, object) contact sensor (found, position, normal: the contact c of MAP §III's correction)
+    as read in the last substep that found a contact (the last substep's, found 0, if none did), so a
+    contact felt in any substep comes with its own position. A light object pushed by the hand touches
+    it intermittently: one sample per control period misses most touches, and a peak `found` beside
+    the last substep's position would report a contact without a position.
+    """
+    xp = np if isinstance(substeps, np.ndarray) else jnp
+    k = substeps.shape[1]
+    cols = layout.contact.ravel()[:, None] + np.arange(7)                       # (C, 7) contact blocks
+    found = substeps[:, :, layout.contact.ravel()] > 0                          # (B, K, C)
+    when = k - 1 - xp.argmax(found[:, ::-1], axis=1)                            # (B, C) last substep found
+    blocks = xp.take_along_axis(substeps[:, :, cols], when[:, None, :, None], axis=1)[:, 0]   # (B, C, 7)
+    idx = np.concatenate([layout.touch, cols.ravel()])
+    values = xp.concatenate([substeps[:, :, layout.touch].max(1), blocks.reshape(blocks.shape[0], -1)], -1)
+    if xp is np:
+        out = substeps[:, -1].copy()
+        out[:, idx] = values
         return out
-    return last.at[:, idx].set(peak)
+    return substeps[:, -1].at[:, idx].set(values)
 
 
 def native_start(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int):
@@ -222,7 +235,7 @@ def _rollout_native(hand: str, params: TrialParams, object_start: np.ndarray, nt
         if not active.any():
             break
         record = batch.rollout(SUBSTEPS, record=("sensordata",), ids=active)["sensordata"]  # (n, SUBSTEPS, S)
-        sensordata[active] = peak_touch(record[:, -1], record, layout)
+        sensordata[active] = peak_touch(record, layout)
     return _outcomes(state, np.array(batch.bind("qpos")), layout, object_start, params.obj)
 
 
@@ -245,9 +258,9 @@ def _mjx_chunk(hand: str, impl: str):
 
     chunk(mjx model, gravcomp (B, nbody), data, sensors, state, params) -> (data, sensors, state,
     deepest) after `CHUNK` control steps: a `lax.scan` over control steps (controller inside), each a
-    `fori_loop` over the `SUBSTEPS` physics steps of one vmapped step (`sim.rollout.mjx_step` on
+    `lax.scan` over the `SUBSTEPS` physics steps of one vmapped step (`sim.rollout.mjx_step` on
     MJX-JAX, whose LAPACK calls cannot deadlock XLA:CPU; `mjx.step` on Warp). sensors (B, S): the
-    controller's input, touch at its peak over the substeps (`peak_touch`); deepest (B,) int: the most
+    controller's input (`peak_touch` of the substeps' sensordata); deepest (B,) int: the most
     penetrating contacts a world had at once (`_penetrating`). The horizon runs as up to
     n_control_steps() / CHUNK calls of this one program, stopping early once every trial is done.
     """
@@ -259,19 +272,17 @@ def _mjx_chunk(hand: str, impl: str):
         models = mjx_model.tree_replace({"body_gravcomp": gravcomp})
         step = jax.vmap(mjx_step if impl == "jax" else mjx.step, in_axes=(axes, 0))
 
-        def substep(_, carry):
-            data, peak, deepest = carry
+        def substep(carry, _):
+            data, deepest = carry
             data = step(models, data)
-            return (data, jnp.maximum(peak, data.sensordata[:, layout.peak_sensors]),
-                    jnp.maximum(deepest, _penetrating(data, impl)))
+            return (data, jnp.maximum(deepest, _penetrating(data, impl))), data.sensordata
 
         def control_step(carry, _):
             data, sensors, state, deepest = carry
             state, ctrl = control(state, sensors, params)
             data = data.replace(ctrl=ctrl)
-            peak = jnp.zeros((data.sensordata.shape[0], len(layout.peak_sensors)), data.sensordata.dtype)
-            data, peak, deepest = jax.lax.fori_loop(0, SUBSTEPS, substep, (data, peak, deepest))
-            return (data, peak_touch(data.sensordata, peak, layout), state, deepest), None
+            (data, deepest), record = jax.lax.scan(substep, (data, deepest), None, length=SUBSTEPS)
+            return (data, peak_touch(jnp.swapaxes(record, 0, 1), layout), state, deepest), None
 
         deepest = jnp.zeros(sensors.shape[0], jnp.int32)
         carry, _ = jax.lax.scan(control_step, (data, sensors, state, deepest), None, length=CHUNK)

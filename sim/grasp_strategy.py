@@ -19,8 +19,12 @@ sensor with the object fires (peaks over the control period, see `sim.grasp_roll
 Volar grasps stop at the first touch; if it is not on the palm and tactile correction is on, the hand
 retracts straight back and replans with p_new = alpha c + (1 - alpha) p_old, alpha <- alpha^2 (c: the
 mean position of the touching links' contacts), at most `MAX_CORRECTIONS` times; every approach first
-moves sideways onto the line through the goal, then along it, slowing down near the target. Then the
-fingers close, the hand lifts 10 cm and holds for 1 s. No Python branching on data: every transition
+moves sideways onto the line through the goal, then along it, slowing down near the target. Volar
+approaches move slowly all the way: their open fingers reach far ahead of the palm, and the hand starts
+with the fingertips `START_CLEARANCE_M` from the object, so under a position error a fingertip may
+strike the object from the first step on; at full speed that strike topples a thin cylinder before
+the correction can act (issue 21, `experiments.validation.tactile_correction`). Then the fingers
+close, the hand lifts 10 cm and holds for 1 s. No Python branching on data: every transition
 is a `where`.
 """
 from __future__ import annotations
@@ -43,17 +47,17 @@ APPROACH, RETRACT, CLOSE, LIFT, HOLD, DONE = range(6)
 PHASE_NAMES = ("approach", "retract", "close", "lift", "hold", "done")
 CONTROL_DT_S = 0.02            # one control step = 10 physics steps of 2 ms
 APPROACH_SPEED_M_S = 0.25
-SLOW_SPEED_M_S, SLOW_ZONE_M = 0.08, 0.07  # slower within this distance of the approach target
+SLOW_SPEED_M_S, SLOW_ZONE_M = 0.08, 0.07  # slower within this distance of the approach target (volar: always)
 START_CLEARANCE_M = 0.02       # the open fingertips start this far from the object's surface
 RETRACT_M = 0.05
 TOUCH_THRESHOLD_N = 0.05
 ALPHA0 = 0.7
 MAX_CORRECTIONS = 2
-APPROACH_TIMEOUT_S = 1.5       # per approach leg: then close wherever the hand is
+APPROACH_TIMEOUT_S = 2.5       # per approach leg (a slow volar one takes up to 2.3 s): then close where it is
 CLOSE_S, SETTLE_S = 0.8, 0.3    # a slow close: a fast one flicks light objects away
 LIFT_M, LIFT_SPEED_M_S = 0.10, 0.2
 HOLD_S = 1.0
-HORIZON_S = 5.6                # enough for two corrections; `n_control_steps()` control steps
+HORIZON_S = 8.0                # enough for two slow corrections; `n_control_steps()` control steps
 TOP_APPROACH_MAX_DEG = 30.0
 PALM_GAP_M = 0.02              # open-loop approaches stop at most this far from the object's surface
 TIP_CLEARANCE_M = 0.005        # ... and, from the top, with the open fingertip sites this far above the table
@@ -175,11 +179,12 @@ def controller_step(state: ControllerState, sensordata: jax.Array, params: Trial
     lateral = to_target - jnp.sum(to_target * a, -1, keepdims=True) * a
     aligned = jnp.linalg.norm(lateral, axis=-1, keepdims=True) < 0.002
     waypoint = jnp.where(aligned, target, state.cmd + lateral)
-    far = jnp.linalg.norm(to_target, axis=-1, keepdims=True) > SLOW_ZONE_M
-    cmd_app, arrived = _move_towards(state.cmd, waypoint, jnp.where(far, APPROACH_SPEED_M_S, SLOW_SPEED_M_S) * dt)
+    volar = jnp.asarray(params.volar)
+    fast = (jnp.linalg.norm(to_target, axis=-1) > SLOW_ZONE_M) & ~volar
+    cmd_app, arrived = _move_towards(state.cmd, waypoint,
+                                     jnp.where(fast, APPROACH_SPEED_M_S, SLOW_SPEED_M_S)[:, None] * dt)
     arrived = arrived & aligned[:, 0]
     in_app = phase == APPROACH
-    volar = jnp.asarray(params.volar)
     tactile = jnp.asarray(params.tactile)
     first_now = in_app & any_touch & ~state.touched
     first_link = jnp.where(first_now, jnp.argmax(touching, axis=-1), state.first_link)

@@ -244,13 +244,6 @@ class SceneLayout:
     fingertip_site: np.ndarray  # (F,) site ids of the fingertips
 
 
-    @property
-    def peak_sensors(self) -> np.ndarray:
-        """sensordata indices read at their peak over a control period: every touch sensor and every
-        contact sensor's `found` count."""
-        return np.concatenate([self.touch, self.contact.ravel()])
-
-
 def scene_layout(model: mujoco.MjModel, hand: str) -> SceneLayout:
     """The `SceneLayout` of a model compiled from `grasp_scene_xml(hand)`."""
     spec = hand_spec(hand)

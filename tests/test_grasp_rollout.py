@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sim.grasp_objects import GRASP_CLASSES, VOLAR_GRASPS
-from sim.grasp_rollout import resolve_backend, rollout_grasps, warp_status
+from sim.grasp_rollout import SUBSTEPS, peak_touch, resolve_backend, rollout_grasps, warp_status
 from sim.grasp_strategy import (ALPHA0, APPROACH, CLOSE, CONTROL_DT_S, HOLD_S, RETRACT, TOUCH_THRESHOLD_N,
                                 controller_step, initial_state, plan_trials)
 from sim.robot_hands import grasp_model
@@ -83,6 +83,41 @@ def test_open_loop_grasps_ignore_touches(barrett):
     state = initial_state(params, layout.n_links)
     new, _ = controller_step(state, _sensors(layout, model.nsensordata, 3, [2], [0, 0, 0.02]), params, layout)
     assert int(new.phase[0]) == APPROACH and bool(new.touched[0])
+
+
+def _peak_touch_reference(substeps, layout):
+    """peak_touch by loops (float64): touch = max over substeps; each contact sensor's 7 values from the
+    latest substep whose `found` > 0, else from the last substep; everything else from the last substep."""
+    b, k, _ = substeps.shape
+    out = substeps[:, -1].astype(np.float64).copy()
+    for i in range(b):
+        for adr in layout.touch:
+            out[i, adr] = max(substeps[i, j, adr] for j in range(k))
+        for adr in layout.contact.ravel():
+            hits = [j for j in range(k) if substeps[i, j, adr] > 0]
+            out[i, adr:adr + 7] = substeps[i, hits[-1] if hits else k - 1, adr:adr + 7]
+    return out
+
+
+def test_peak_touch_keeps_the_position_of_the_substep_that_found_the_contact(barrett):
+    """Regression (issue 21): a contact found in an early substep of a control period must reach the
+    controller with that substep's position and normal (the last substep's were zeros, so the tactile
+    correction of MAP §III fired without a contact position). numpy and jax inputs, against loops."""
+    model, layout = barrett
+    rng = np.random.default_rng(0)
+    sub = rng.normal(size=(5, SUBSTEPS, model.nsensordata)).astype(np.float32)
+    found = layout.contact.ravel()
+    sub[:, :, found] = rng.choice([0.0, 0.0, 0.0, 1.0, 2.0], size=(5, SUBSTEPS, len(found)))
+    sub[0, :, found] = 0.0                          # trial 0: no contact found in any substep
+    sub[1, :, found] = 0.0
+    sub[1, 2, found] = 1.0                          # trial 1: only substep 2 found them (a brief tap)
+    sub[1, -1, layout.contact.ravel()[:, None] + np.arange(1, 7)] = 0.0   # ... the last substep has no position
+    sub[:, :, layout.touch] = np.abs(sub[:, :, layout.touch])
+    ref = _peak_touch_reference(sub, layout)
+    np.testing.assert_array_equal(peak_touch(sub, layout), ref)
+    np.testing.assert_array_equal(np.asarray(peak_touch(jnp.asarray(sub), layout)), ref)
+    adr = layout.contact[2, 0]
+    np.testing.assert_array_equal(peak_touch(sub, layout)[1, adr:adr + 7], sub[1, 2, adr:adr + 7])
 
 
 # ------------------------------------------------------------------ virtual fingers

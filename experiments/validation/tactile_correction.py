@@ -12,16 +12,20 @@ the object was lifted. Self-contained; reads no test data. About 8 s on one core
     .venv/bin/python -m experiments.validation.tactile_correction [--hand barrett] [--grasp 2]
         [--directions 0 60 120 180 240 300] [--seeds 0 1] [--approach-speed 0.08]
 
-`--approach-speed` is a counterfactual (it overrides the module constant for this process only).
+`--approach-speed` is a counterfactual: it overrides the volar approach speed
+(`grasp_strategy.SLOW_SPEED_M_S`, 0.08 m/s) for this process only.
 
-What it showed (2026-12-03, Barrett and Karlsruhe, Small Diameter, 5 cm error): the correction fires
+What it showed (2026-12-03, Barrett and Karlsruhe, Small Diameter, 5 cm error): the correction fired
 only where a fingertip touches first (object offset across the approach, 0 and 180 deg); there the
-fingertip hits the 0.15 kg, 3 cm thin cylinder within 0.1 s of the start at full approach speed and the
-hit alone topples it (the object's trajectory is the same with and without the correction), so both
-fail; elsewhere the palm touches first or nothing touches before the approach times out, and the
-trials are identical. Besides, touch and `found` are peaks over the 10 substeps but the contact
-positions are the last substep's: after a brief tap there is no position, c falls back to the old goal
-and the correction retracts and re-approaches along the same line (column c: "none").
+fingertip hit the 0.15 kg, 3 cm thin cylinder within 0.1 s of the start at full approach speed and the
+hit alone toppled it (the object's trajectory was the same with and without the correction), so both
+failed; elsewhere the palm touches first or nothing touches before the approach times out, and the
+trials are identical. Besides, touch and `found` were peaks over the 10 substeps but the contact
+positions were the last substep's: after a brief tap there was no position, c fell back to the old goal
+and the correction retracted and re-approached along the same line (column c: "none").
+After the fix (`peak_touch` keeps each contact's own substep; volar approaches at 0.08 m/s all the
+way), the same command: every correction has its c, the object moves at most 5.1 mm in the 0.3 s after
+a touch that starts a correction, and success with / without the correction is 1.00 / 0.67 (Barrett) and 0.92 / 0.58 (Karlsruhe).
 """
 from __future__ import annotations
 
@@ -63,7 +67,7 @@ def logged_rollout(hand: str, params, object_start):
         if not active.any():
             break
         record = batch.rollout(SUBSTEPS, record=("sensordata",), ids=active)["sensordata"]
-        sensordata[active] = peak_touch(record[:, -1], record, layout)
+        sensordata[active] = peak_touch(record, layout)
     out = _outcomes(state, np.array(batch.bind("qpos")), layout, object_start, params.obj)
     return out, {k: np.stack(v) for k, v in log.items()}
 
@@ -80,11 +84,11 @@ def main(argv=None) -> None:
     ap.add_argument("--directions", type=float, nargs="+", default=[0.0, 60.0, 120.0, 180.0, 240.0, 300.0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0])
     ap.add_argument("--approach-speed", type=float, default=None,
-                    help="counterfactual only: override grasp_strategy.APPROACH_SPEED_M_S (m/s) for this run")
+                    help="counterfactual only: override grasp_strategy.SLOW_SPEED_M_S (m/s) for this run")
     args = ap.parse_args(argv)
     if args.approach_speed is not None:   # read when the controller is first traced
         import sim.grasp_strategy as gs
-        gs.APPROACH_SPEED_M_S = args.approach_speed
+        gs.SLOW_SPEED_M_S = args.approach_speed
     spec = hand_spec(args.hand)
     names = spec.link_names
     rows = [(d, s, tac) for d in args.directions for s in args.seeds for tac in (True, False)]
@@ -99,8 +103,9 @@ def main(argv=None) -> None:
           + (f"; COUNTERFACTUAL approach speed {args.approach_speed} m/s" if args.approach_speed is not None else ""))
     print("lat. off: palm's distance from the object's current centre across the approach when closing begins; "
           "obj moved: object displacement in the 0.3 s after the first touch; first touch: in any phase; c: mean contact "
-          "position of the touching links in the controller's reading (touch and found are peaks over the 10 substeps, "
-          "positions the last substep's): 'none' -> the controller falls back to c = goal (goal unchanged)")
+          "position of the touching links in the controller's reading (`peak_touch`: touch at its peak over the 10 "
+          "substeps, each contact as read in the last substep that found it): 'none' -> the controller falls back to "
+          "c = goal (goal unchanged)")
     hdr = (f"{'dir':>4} {'seed':>4} {'tact':>4} | {'first touch (t: links)':<34} | {'corrections (t: links; c; palm; goal -> goal)':<90}"
            f" | {'close t':>7} {'palm at close':<18} {'lat. off':>8} | {'obj moved':>9} | {'lift mm':>7} {'ok':>3}")
     print(hdr)
@@ -115,7 +120,7 @@ def main(argv=None) -> None:
         corr = []
         for k in np.flatnonzero((phase == RETRACT) & (prev == APPROACH)):
             g0 = log["goal"][k - 1, i] if k else params.goal[i]
-            # the controller's c: contact positions of the touching links in the reading (the last substep's)
+            # the controller's c: contact positions of the touching links in the reading (`peak_touch`)
             w = touching[k] & np.any(log["cpos"][k, i] != 0, -1)
             c = fmt(log["cpos"][k, i][w].mean(0)) if w.any() else "none"
             corr.append(f"{k * CONTROL_DT_S:.2f}: " + ",".join(names[j] for j in np.flatnonzero(touching[k]))
