@@ -31,6 +31,7 @@ from crf_jax.hcrf import init_hcrf
 from crf_jax.linear import init_linear
 from crf_jax.solver import FitOptions, FitResult, TrainInfo, l2_penalty, minimize
 from lfd_common import check_choice, check_int, check_real
+from lfd_common.sharding import check_mesh, shard
 
 _NO_LIMIT = np.iinfo(np.int32).max
 
@@ -42,6 +43,13 @@ def chain_objective(model, data) -> Array:
     """sum_b NLL_b + l2 ||theta||^2 for a ChainCRF; data = (X (B,T,D), y (B,T), lengths (B,), l2 ())."""
     X, y, lengths, l2 = data
     return jnp.sum(chain.nll(model, X, y, lengths)) + l2 * l2_penalty(model)
+
+
+def masked_chain_objective(model, data) -> Array:
+    """`chain_objective` over the sequences where mask (B,) is True, for a batch padded to a device
+    mesh (`lfd_common.shard`); data = (X, y, lengths, mask, l2)."""
+    X, y, lengths, mask, l2 = data
+    return jnp.sum(jnp.where(mask, chain.nll(model, X, y, lengths), 0.0)) + l2 * l2_penalty(model)
 
 
 def hcrf_objective(model, data) -> Array:
@@ -139,7 +147,7 @@ def _finish(result: FitResult, fit: str, name: str = "X") -> FitResult:
 def fit_chain(
     X: Float[ArrayLike, "B T D"], y: Int[ArrayLike, "B T"], lengths: Int[ArrayLike, " B"] | None = None, *,
     n_labels: int | None = None, connectivity: int = 0, l2: float = 1.0, validation: tuple | None = None,
-    init: ChainCRF | None = None, options: FitOptions | None = None,
+    init: ChainCRF | None = None, options: FitOptions | None = None, mesh=None,
 ) -> FitResult:
     """Fit a linear-chain CRF to per-frame labels. Returns FitResult(ChainCRF, TrainInfo).
 
@@ -148,13 +156,23 @@ def fit_chain(
     l2: CRFsuite's c2 (objective = sum NLL + l2 ||theta||^2). validation: (X_val, y_val[, lengths_val])
     for early stopping. init: a ChainCRF to start from (default zeros: the objective is convex).
     options: the search (default `FitOptions()`).
+    mesh: a `jax.sharding.Mesh` (or None: one device). The training sequences are split over its
+    devices (padded to the mesh, padding masked out of the objective: `masked_chain_objective`) and
+    the one jitted search runs data-parallel: each device's NLL and gradient cover its sequences and
+    XLA sums them over the mesh. The fit equals the one-device fit to round-off. With several
+    processes each passes its own sequences.
     """
     options = _options(options, FitOptions())
+    mesh = check_mesh(mesh)
     connectivity = check_int(connectivity, "connectivity", min_value=0)
     l2 = check_real(l2, "l2", min_value=0.0)
     Xc, lens, Xv, lv, yv = _sequence_batches(X, lengths, validation, 1)
     n_labels = _label_count(n_labels, y, lambda y_, n: check_labels(y_, lens, n), "n_labels")
     data = _data(Xc, _frames(y, lens, n_labels, "y", Xc.shape[1]), lens, l2=l2)
+    objective = chain_objective
+    if mesh is not None:
+        batch = shard(mesh, *data[:3])
+        objective, data = masked_chain_objective, (*batch.arrays, batch.mask, data[3])
     val_data = None if Xv is None else _data(Xv, _frames(yv[0], lv, n_labels, "validation[1]", Xv.shape[1]), lv,
                                              l2=0.0)
     if init is None:
@@ -167,7 +185,7 @@ def fit_chain(
         params = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), init)
         if not all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in params):
             raise ValueError("init: contains NaN or infinite values (or values overflowing float32)")
-    return _finish(minimize(chain_objective, params, data, val_data, options), "fit_chain")
+    return _finish(minimize(objective, params, data, val_data, options), "fit_chain")
 
 
 def fit_hcrf(

@@ -67,6 +67,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Real
 from hog_jax.background_kernel import (BackgroundState, KernelOptions, init_state, log_density_pixels_last, pixels_last,
                                        scan_pixels_last, step_pixels_last, to_public)
 from lfd_common import as_array, check_choice, check_int, check_real
+from lfd_common.sharding import check_mesh, map_batch
 
 __all__ = ["BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "log_density",
            "run_background", "run_background_batch", "update"]
@@ -309,11 +310,16 @@ def run_background(frames: Real[ArrayLike, "T H W C"], no_update_masks: Bool[Arr
     return _joined(_in_threads(stripe, _parts(x.shape[1], threads, "threads")), fg_axis=1)
 
 
+def _batch_shard(o, frames, *masks, K: int, videos_per_step: int):
+    """`_run_batch_jit` on one shard's videos (B/S, T, H, W, C) of a batch split over a mesh."""
+    return _run_batch_jit(frames, masks[0] if masks else None, o, K, min(videos_per_step, frames.shape[0]))
+
+
 def run_background_batch(frames: Real[ArrayLike, "B T H W C"],
                          no_update_masks: Bool[ArrayLike, "B T H W"] | None = None,
                          structure: BackgroundStructure = BackgroundStructure(),
                          options: BackgroundOptions = BackgroundOptions(), videos_per_step: int | None = None,
-                         threads: int | None = None) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
+                         threads: int | None = None, *, mesh=None) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
     """`run_background` for B videos of equal length (B, T, H, W, C) in one call: final states with a
     leading B axis and foreground (B, T, H, W). Checks as `run_background`.
 
@@ -322,12 +328,20 @@ def run_background_batch(frames: Real[ArrayLike, "B T H W C"],
     (K (C + 2) floats per pixel) stays in the cache from frame to frame and B of them would not: a
     vmap over all videos there gave fewer frames per second than one video at a time.
     threads: the videos are cut into this many groups, each its own compiled call on a host thread
-    (as `run_background`'s stripes); default one per core on the CPU, 1 on an accelerator."""
+    (as `run_background`'s stripes); default one per core on the CPU, 1 on an accelerator.
+    mesh: a `jax.sharding.Mesh` (or None: one device). The videos are split over its devices
+    (`lfd_common.map_batch`, padded to the mesh, the padding cut off; `threads` is then unused), each
+    device runs its own; the result equals the one-device result. With several processes each passes
+    its own videos and gets its own back."""
+    mesh = check_mesh(mesh)
     x, m, o = _run(frames, no_update_masks, structure, options, 5)
     B = x.shape[0]
     if videos_per_step is None:
         videos_per_step = 1 if jax.default_backend() == "cpu" else B
     step = check_int(videos_per_step, "videos_per_step", min_value=1, max_value=B)
+    if mesh is not None:
+        return map_batch(_batch_shard, mesh, (o,), (x,) if m is None else (x, m),
+                         static=(("K", structure.n_components), ("videos_per_step", step)))
 
     def group(videos: slice):
         n = videos.stop - videos.start

@@ -22,6 +22,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 
 from hog_jax._checks import check_feature_range
 from lfd_common import as_array, check_int
+from lfd_common.sharding import check_mesh
 
 __all__ = ["LSHResult", "exact_search"]
 
@@ -87,16 +88,28 @@ def check_queries(queries, dim: int) -> tuple[np.ndarray, bool]:
 
 
 def exact_search(data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"],
-                 k: int = 10) -> LSHResult:
+                 k: int = 10, *, mesh=None) -> LSHResult:
     """Exact Euclidean kNN of each query (Q, D) (or one (D,) query) in `data` (N, D): an `LSHResult`
     with n_scanned = N. Blocked over the database (a running top-k merged per block of points).
 
     Every query finds k neighbours (k <= N). ValueError naming the argument for empty or non-finite
-    input, a query of another dimension, k outside [1, N], or |values| > 2^60 / sqrt(D)."""
+    input, a query of another dimension, k outside [1, N], or |values| > 2^60 / sqrt(D).
+
+    mesh: a `jax.sharding.Mesh` (or None: one device). The database rows are split over its devices,
+    the queries broadcast, each device's k best merged (`lsh_sharded.exact_search_sharded`); the result
+    equals the one-device result. With several processes each passes its own rows of the database
+    (the same queries everywhere) and gets the whole result, ids counting the processes' rows in order.
+    """
+    mesh = check_mesh(mesh)
     data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     q, single = check_queries(queries, data.shape[1])
     N = data.shape[0]
     check_int(k, "k", min_value=1, max_value=N)
+    if mesh is not None:
+        from hog_jax.lsh_sharded import exact_search_sharded  # it builds on this module
+
+        res = exact_search_sharded(data, q, k, mesh)
+        return LSHResult(*(a[0] for a in res)) if single else res
     x = jnp.asarray(data)
     idx, d = _exact(x, jnp.sum(x * x, axis=1), jnp.asarray(q), k, min(q.shape[0], _Q_CHUNK), min(N, _N_BLOCK))
     res = LSHResult(idx, d, jnp.full((q.shape[0],), N, jnp.int32))

@@ -54,6 +54,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from lfd_common import as_array, check_choice, check_int
+from lfd_common.sharding import check_mesh, map_batch
 
 __all__ = ["HOGConfig", "hog", "hog_dim", "gradients", "orientation"]
 
@@ -235,6 +236,11 @@ def _hog_jit(images, mask, config: HOGConfig):
     return feats.reshape(n_chunks * chunk, -1)[:B]
 
 
+def _hog_shard(images, *mask, config: HOGConfig):
+    """`_hog_jit` on one shard's images (B/S, H, W) and, if given, their mask."""
+    return _hog_jit(images, mask[0] if mask else None, config)
+
+
 @jax.jit
 def _image_stats(images):
     """Per image: (all finite, max |I|) for a (B, H, W) device array."""
@@ -305,7 +311,7 @@ def _check_images(images):
 
 
 def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGConfig = HOGConfig(),
-        mask: Bool[ArrayLike, "B H W"] | Bool[ArrayLike, "H W"] | None = None
+        mask: Bool[ArrayLike, "B H W"] | Bool[ArrayLike, "H W"] | None = None, *, mesh=None
         ) -> Float[Array, "B D"] | Float[Array, " D"]:
     """HOG features of a batch of grayscale images.
 
@@ -320,8 +326,14 @@ def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGCo
     A numpy batch is streamed to the device in chunks of about 4 Mpixel (asynchronous dispatch
     overlaps the copy of one chunk with the computation of the previous one); a jax array is used
     in place.
+
+    mesh: a `jax.sharding.Mesh` (or None: one device). The images are split over its devices
+    (`lfd_common.map_batch`: padded to the mesh, the padding cut off), each device runs the same
+    function on its images; the features equal the one-device features. With several processes
+    each passes its own images and gets its own rows.
     """
     _check_config(config)
+    mesh = check_mesh(mesh)
     single = np.ndim(images) == 2
     arr, shift = _check_images(images)
     B, H, W = arr.shape
@@ -341,7 +353,9 @@ def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGCo
             raise ValueError(f"mask: image {int(np.argmin(has))} has no unmasked pixel")
     if shift is not None:  # out of the safe range: computed on arr / 2^shift (exact)
         arr = _times_pow2(arr, -shift)
-    if isinstance(arr, jax.Array):
+    if mesh is not None:
+        out = map_batch(_hog_shard, mesh, (), (arr,) if m is None else (arr, m), static=(("config", config),))
+    elif isinstance(arr, jax.Array):
         out = _hog_jit(arr, None if m is None else jnp.asarray(m), config)
     else:
         out = _hog_stream(arr, m, config)

@@ -212,7 +212,7 @@ def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, "
     if not isinstance(index, LSHIndex):
         from hog_jax.lsh_sharded import query_sharded  # it builds on this module
 
-        return query_sharded(index, queries, k, n_per_table, n_tables, max_rerank)
+        return query_sharded(index, queries, k, n_per_table, n_tables, max_rerank, n_probes)
     q, single = check_queries(queries, index.data.shape[1])
     check_int(k, "k", min_value=1, max_value=index.data.shape[0])
     check_int(n_per_table, "n_per_table", min_value=1)

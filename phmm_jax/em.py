@@ -18,6 +18,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from lfd_common import pad_sequences
+from lfd_common.sharding import check_mesh, shard, sharded_call
 from phmm_jax import inference
 from phmm_jax._batched import emission_columns
 from phmm_jax.checks import check_fit_scale, check_fitted, check_hmm, check_type
@@ -29,19 +30,21 @@ from phmm_jax.options import FitOptions, check_options
 _MIN_RESPONSIBILITY = 1e-6
 
 
-def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, reg_covar, update_means: bool = True):
+def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, reg_covar, update_means: bool = True,
+                    total=lambda a: a):
     """Weighted Gaussian estimates from responsibilities gamma (T, N, B) and frames X (B, T, D).
 
     Returns (means (N, D), covariances (N, D, D), number of starved states); `reg_covar` is added to
     every covariance diagonal. A starved state (total responsibility below 1e-6) keeps `previous`'s
     Gaussian (identity covariance when None) instead of producing NaN. `update_means=False` keeps
-    `previous.means` (synchronised local training, PHMM eq. 2).
+    `previous.means` (synchronised local training, PHMM eq. 2). `total` completes a sum over the
+    batch (`jax.lax.psum` over the mesh when the batch is split over devices; identity otherwise).
     """
     dim = X.shape[-1]
-    weight = jnp.sum(gamma, axis=(0, 2))  # (N,)
+    weight = total(jnp.sum(gamma, axis=(0, 2)))  # (N,)
     starved = weight < _MIN_RESPONSIBILITY
     safe_weight = jnp.where(starved, 1.0, weight)
-    new_means = jnp.einsum("tnb,btd->nd", gamma, X) / safe_weight[:, None]
+    new_means = total(jnp.einsum("tnb,btd->nd", gamma, X)) / safe_weight[:, None]
     fallback_means = new_means if previous is None else previous.means
     means = jnp.where(starved[:, None], fallback_means, new_means)
     if not update_means:
@@ -49,9 +52,9 @@ def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, reg_covar
     centred = X[:, :, None, :] - means  # (B, T, N, D)
     eye = jnp.eye(dim, dtype=X.dtype)
     if config.covariance_type == "full":
-        scatter = jnp.einsum("tnb,btnd,btne->nde", gamma, centred, centred)
+        scatter = total(jnp.einsum("tnb,btnd,btne->nde", gamma, centred, centred))
     else:
-        scatter = jnp.einsum("tnb,btnd->nd", gamma, centred * centred)[:, :, None] * eye
+        scatter = total(jnp.einsum("tnb,btnd->nd", gamma, centred * centred))[:, :, None] * eye
     covariances = scatter / safe_weight[:, None, None] + reg_covar * eye
     fallback_cov = jnp.broadcast_to(eye, covariances.shape) if previous is None else previous.covariances
     covariances = jnp.where(starved[:, None, None], fallback_cov, covariances)
@@ -64,19 +67,42 @@ def sufficient_statistics(hmm: HMM, X, lengths, weights):
     return stats.state, stats.cont[..., 0], stats.exits[..., 0], stats.loglik
 
 
-@partial(jax.jit, static_argnames=("update_means",))
-def em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True):
+@partial(jax.jit, static_argnames=("update_means", "axis_name"))
+def em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True,
+            axis_name=None):
     """One EM iteration. Returns (new HMM, weighted mean log-likelihood per frame of `hmm`, starved).
 
     weights: (B,) per-sequence weights (0 for padding sequences, 1 otherwise).
     reg_covar, duration_pseudocount: the M step's regularisation (`FitOptions`), traced.
+    axis_name: None, or the mesh axes the batch is split over inside `jax.shard_map`: every
+    sufficient statistic is then summed over them (`jax.lax.psum`), so each device gets the same
+    new HMM as one device with the whole batch.
     """
+    total = (lambda a: a) if axis_name is None else partial(jax.lax.psum, axis_name=axis_name)
     gamma, cont, exits, loglik = sufficient_statistics(hmm, X, lengths, weights)
-    means, covariances, starved = gaussian_m_step(hmm.config, gamma, X, hmm, reg_covar, update_means)
-    log_cont, log_exit = transitions_from_counts(hmm.config, cont, exits, duration_pseudocount, hmm)
-    n_frames = jnp.sum(weights * lengths)
+    means, covariances, starved = gaussian_m_step(hmm.config, gamma, X, hmm, reg_covar, update_means, total)
+    log_cont, log_exit = transitions_from_counts(hmm.config, total(cont), total(exits), duration_pseudocount, hmm)
+    n_frames = total(jnp.sum(weights * lengths))
     new = hmm.replace(means=means, covariances=covariances, log_cont=log_cont, log_exit=log_exit)
-    return new, jnp.sum(weights * loglik) / n_frames, starved
+    return new, total(jnp.sum(weights * loglik)) / n_frames, starved
+
+
+def _em_shard(hmm: HMM, reg_covar, duration_pseudocount, X, lengths, weights, update_means: bool, axis_name):
+    """`em_step` with the replicated arguments first (the order of `lfd_common.sharded_call`)."""
+    return em_step(hmm, X, lengths, weights, reg_covar, duration_pseudocount, update_means, axis_name)
+
+
+def sharded_em_step(mesh):
+    """`em_step` (same signature and results) for a batch split over `mesh` (`lfd_common.shard`):
+    each device computes its sequences' sufficient statistics, `jax.lax.psum` sums them, and every
+    device gets the new HMM (replicated). Padding sequences carry weight 0."""
+    axes = tuple(mesh.axis_names)
+
+    def step(hmm, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True):
+        return sharded_call(_em_shard, mesh, (hmm, reg_covar, duration_pseudocount), (X, lengths, weights),
+                            static=(("update_means", update_means), ("axis_name", axes)), out_batched=False)
+
+    return step
 
 
 def equal_segmentation(lengths, n_frames: int, n_states: int, dtype=jnp.float32):
@@ -141,20 +167,23 @@ def check_fit_result(hmm: HMM, X, options: FitOptions, name: str = "X") -> None:
     `reg_covar` when reg_covar = 0 left a singular covariance, else `name` (the data)."""
     scale = None
     if options.reg_covar == 0:
-        X = np.asarray(X)
-        scale = np.max(np.abs(X), axis=tuple(range(X.ndim - 1)))
+        scale = np.asarray(jnp.max(jnp.abs(jnp.asarray(X)), axis=tuple(range(np.ndim(X) - 1))))
     check_fitted(hmm, options.reg_covar, scale, name)
 
 
-def prepare_fit(X, lengths, config: HMMConfig, init: HMM | None, options: FitOptions):
+def prepare_fit(X, lengths, config: HMMConfig, init: HMM | None, options: FitOptions, mesh=None):
     """The common start of every HMM fit: check `options`, `config` / `init` and the sequences, pad
     them to device arrays, and return (X, lengths, weights (B,) of ones, the starting HMM: `init`,
     or the equal segmentation in time of `config` when None).
+
+    mesh: None, or a `jax.sharding.Mesh` to split the batch over (`lfd_common.shard`): X, lengths
+    and weights then come back as global (B', ...) arrays padded to the mesh, weights 0 on padding.
 
     Raises `ValueError` naming the argument for a wrong type, an invalid `init` (`checks.check_hmm`),
     or data whose covariance estimates would overflow the compute dtype (`checks.check_fit_scale`).
     """
     check_options(options)
+    mesh = check_mesh(mesh)
     if init is not None:
         check_type(init, "init", HMM, "a phmm_jax.HMM or None")
         if np.ndim(init.means) != 2:
@@ -171,13 +200,16 @@ def prepare_fit(X, lengths, config: HMMConfig, init: HMM | None, options: FitOpt
     check_fit_scale(X, lengths)
     X, lengths = to_device(X, lengths)
     weights = jnp.ones(X.shape[0], X.dtype)
+    if mesh is not None:
+        batch = shard(mesh, X, lengths)
+        (X, lengths), weights = batch.arrays, batch.mask.astype(X.dtype)
     if init is None:
         init = initial_hmm(config, X, lengths, weights, options.reg_covar, options.duration_pseudocount)
     return X, lengths, weights, init
 
 
 def fit_hmm(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig(), init: HMM | None = None,
-            *, options: FitOptions = FitOptions(), return_history: bool = False
+            *, options: FitOptions = FitOptions(), return_history: bool = False, mesh=None
             ) -> HMM | tuple[HMM, Float[Array, " I"]]:
     """Fit an HMM by Baum–Welch EM on the pseudo-state chains: E step by
     `inference.expected_statistics`, M step in closed form (weighted Gaussians, normalised
@@ -193,8 +225,14 @@ def fit_hmm(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig
     leaves a covariance singular (a constant feature, collinear features, a state of at most D
     frames) the fit raises `ValueError` naming `reg_covar`; data whose second moments overflow the
     compute dtype (e.g. values of 1e20 in float32) raise `ValueError` naming `X` before fitting.
+
+    mesh: a `jax.sharding.Mesh` (or None: one device). The sequences are split over its devices,
+    each device computes its part of the E step and the sufficient statistics are summed over the
+    mesh (`sharded_em_step`); the fit equals the one-device fit to round-off. With several processes
+    each passes its own sequences (they must share D) and every process gets the same HMM.
     """
-    X, lengths, weights, hmm = prepare_fit(X, lengths, config, init, options)
-    hmm, history = run_em(hmm, X, lengths, weights, options, options.max_iter, options.freeze_means_after)
+    X, lengths, weights, hmm = prepare_fit(X, lengths, config, init, options, mesh)
+    hmm, history = run_em(hmm, X, lengths, weights, options, options.max_iter, options.freeze_means_after,
+                          step=em_step if mesh is None else sharded_em_step(mesh))
     check_fit_result(hmm, X, options)
     return (hmm, jnp.asarray(history)) if return_history else hmm

@@ -21,6 +21,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log, solve_spd
+from lfd_common.sharding import check_mesh, map_batch
 from phmm_jax import inference
 from phmm_jax._batched import emission_columns
 from phmm_jax.checks import (check_distances, check_fit_scale, check_grid_shape, check_type, covariance_range,
@@ -321,8 +322,13 @@ def _search(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points: int, 
     return phi, loglik
 
 
+def _search_shard(phmm: PHMM, epsilon, X, lengths, *, n_steps: int, lattice_points: int, face_steps: int):
+    """`_search` on one shard's sequences of a batch split over a mesh."""
+    return _search(phmm, X, lengths, epsilon, n_steps, lattice_points, face_steps)
+
+
 def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
-              n_steps: int = 6, lattice_points: int = 5, face_steps: int = 3) -> Recognition:
+              n_steps: int = 6, lattice_points: int = 5, face_steps: int = 3, *, mesh=None) -> Recognition:
     """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
 
     For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ), from the best point of a
@@ -339,7 +345,12 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
     Raises `ValueError` naming the argument for anything else: n_steps < 1, face_steps < 0,
     lattice_points < 1, a negative epsilon, models that are not PHMMs, and data (or an epsilon) so
     far from a model's means that the search would overflow the compute dtype.
+    mesh: a `jax.sharding.Mesh` (or None: one device). The sequences are split over its devices
+    (`lfd_common.map_batch`: padded to the mesh, the padding cut off), each device searches φ for its
+    own (every sequence's search is independent); the result equals the one-device result. With
+    several processes each passes its own sequences and gets its own rows.
     """
+    mesh = check_mesh(mesh)
     if isinstance(phmms, PHMM):
         phmms = [phmms]
     elif isinstance(phmms, (list, tuple)):
@@ -362,7 +373,11 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         reach = extrapolation_factor(phmm.grid_shape, np.full((1, phmm.n_params), -epsilon))
         check_phmm_distances(phmm, X, lengths, reach, f"phmms[{k}]", "epsilon")
     X, lengths = to_device(X, lengths)
-    results = [_search(p, X, lengths, epsilon, n_steps, lattice_points, face_steps) for p in phmms]
+    if mesh is None:
+        results = [_search(p, X, lengths, epsilon, n_steps, lattice_points, face_steps) for p in phmms]
+    else:
+        static = (("n_steps", n_steps), ("lattice_points", lattice_points), ("face_steps", face_steps))
+        results = [map_batch(_search_shard, mesh, (p, epsilon), (X, lengths), static=static) for p in phmms]
     phi = jnp.stack([r[0] for r in results], axis=1)
     loglik = jnp.stack([r[1] for r in results], axis=1)
     return Recognition(jnp.argmax(loglik, axis=1), phi, loglik)
