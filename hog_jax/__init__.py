@@ -14,6 +14,7 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
   background_rgb)`, `skin_log_ratio(model, frames)`, `segment(model, frames, ...)` -> `Segmentation`,
   `rgb_to_chroma`, `gmm_log_prob`, `median3`, `crop_components(gray, masks, seed_points, out_size)` (the
   component-and-square-crop steps of `segment` on any masks, e.g. the video pipeline's hand or object),
+  `adapt_skin_model(model, frames)` (per-frame MAP-EM adaptation) and `segment_adapted` (`segment` with it),
   `save_skin_model(path, model)` / `load_skin_model(path)`
   (the structure, `SkinStructure`, and the arrays, checked on load, through `lfd_common.save_model`).
 * HOG: `HOGConfig` (n_bins=4, n_levels=3, layout="pyramid"|"grid", orientation="grasp"|"abs",
@@ -101,6 +102,7 @@ from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_s
                          quat_to_euler, vote)
 from hog_jax.lsh import LSHIndex, TuneResult, build_index, query, recall_at_k, tune
 from hog_jax.metric import LinearMetric, apply_metric, fit_metric
+from hog_jax.skin_adapt import adapt_skin_model, segment_adapted
 from hog_jax.segment import (GMM, Segmentation, SkinModel, SkinStructure, crop_components, fit_gmm, fit_skin_model,
                              gmm_log_prob,
                              load_skin_model, median3, rgb_to_chroma, save_skin_model, segment, skin_log_ratio)
@@ -112,6 +114,7 @@ __all__ = [
     "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "Prediction", "TuneResult", "build_index",
     "euler_to_quat", "exact_search", "fit", "hog", "hog_dim", "intra_class_sigma", "mean_rotation",
     "predict", "query", "quat_to_euler", "recall_at_k", "tune", "vote", "LinearMetric", "apply_metric", "fit_metric",
+    "adapt_skin_model", "segment_adapted",
     "BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "run_background",
     "run_background_batch", "Blobs", "Ellipse", "EllipseAxes", "connected_blobs", "ellipse_axes", "mask_ellipse",
     "weighted_moments", "BICScores", "ColourFit", "ColourModels", "ColourStructure", "bic", "fit_gmm_bic",
