@@ -82,10 +82,15 @@ _BARRETT = HandSpec(
     ),
     dofs=("spread", "flex1", "flex2", "flex3"),
     # Fig. 2 g-i: Wrap (large aperture, fingers parallel against the thumb), Two-finger Thumb (small
-    # aperture, tips pinch), Precision Disc (fingers spread 60 degrees: a tripod)
+    # aperture, tips pinch), Precision Disc (fingers spread 60 degrees: a tripod). Two-finger Thumb
+    # (issue 21, measured on the 3 cm cube): the two finger bases are 52 mm apart, so unspread they
+    # straddle a small object and at most one touches it, at its edge, against the thumb (the cube spun
+    # or was squeezed out in every trial); spread 0.6 rad their tips meet on the thumb's line. The
+    # closing target 0.6 rad (not 1.5) keeps the squeeze below the finger torque limit: at the limit
+    # the cube, held higher by the thumb than by the fingers, tilted and slipped out.
     preshapes={
         "Wrap": ((0.0, 0.0, 0.0, 0.0), (0.0, 2.2, 2.2, 2.2)),
-        "Two-finger Thumb": ((0.0, 0.1, 0.1, 0.1), (0.0, 1.5, 1.5, 1.5)),
+        "Two-finger Thumb": ((0.6, 0.1, 0.1, 0.1), (0.6, 0.6, 0.6, 0.6)),
         "Precision Disc": ((1.05, 0.0, 0.0, 0.0), (1.05, 1.5, 1.5, 1.5)),
     },
     distal_coupling=(0.0, 0.5),  # the distal link follows the proximal at half its angle
