@@ -107,7 +107,7 @@ def report(cfg, m: dict) -> str:
                         "position error 3x3, Σ + σ̂² I (cm)", "rate 3x3, Σ + σ̂² I",
                         "position error, regression from the final finger (cm)"], noise_rows),
         "",
-        "The last three columns: the 3x3 PHMMs with the exact emission model of x = y + N(0, σ² I), "
+        "Columns 7-9: the 3x3 PHMMs with the exact emission model of x = y + N(0, σ² I), "
         "Σ + σ̂² I, σ̂² estimated from each noise level's test movements themselves "
         "(`phmm_jax.estimate_noise_variance`, second differences): nothing is tuned on the test set. "
         "The last column: the baseline (an affine least-squares map per action from the index tip at the "
