@@ -41,10 +41,12 @@ import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
+from jax.sharding import NamedSharding, PartitionSpec
 from mujoco import mjx
 from mujoco.batch import Batch
 
 from lfd_common import as_array, check_choice, check_int
+from lfd_common.sharding import batch_spec, check_mesh, pad_rows
 from sim.grasp_objects import GRASP_CLASSES
 from sim.grasp_strategy import (CONTROL_DT_S, DONE, ControllerState, TrialParams, controller_step, initial_state,
                                 n_control_steps)
@@ -173,18 +175,30 @@ def _outcomes(state: ControllerState, qpos: np.ndarray, layout: SceneLayout, obj
 
 
 def rollout_grasps(hand: str, params: TrialParams, object_start, backend: str = "auto",
-                   nthread: int = 0) -> GraspOutcomes:
+                   nthread: int = 0, *, mesh=None) -> GraspOutcomes:
     """Run B grasp trials of `hand` (params from `grasp_strategy.plan_trials`) on `backend`.
 
     object_start (B, 3): where each trial's object really stands. nthread: `native` threads (0: all).
+    mesh: a `jax.sharding.Mesh` of this process's devices (MJX backends; None: one device): the worlds
+    are padded to the mesh with copies of trial 0 and split over its devices, the outcomes cut back
+    to B; they equal the one-device outcomes. ValueError naming `mesh` with the native backend.
     """
+    mesh = check_mesh(mesh)
     hand = hand_spec(hand).name
     backend = resolve_backend(backend)
     nthread = check_int(nthread, "nthread", min_value=0, max_value=1024)
     params, object_start = _check_inputs(hand, params, object_start)
     if backend == "native":
+        if mesh is not None:
+            raise ValueError("mesh: the native backend runs on host threads; shard worlds with an MJX backend")
         return _rollout_native(hand, params, object_start, nthread)
-    return _rollout_mjx(hand, params, object_start, impl="jax" if backend == "mjx-jax" else "warp")
+    impl = "jax" if backend == "mjx-jax" else "warp"
+    if mesh is None:
+        return _rollout_mjx(hand, params, object_start, impl)
+    b = object_start.shape[0]
+    *fields, start = pad_rows((*params, object_start), -(-b // mesh.size) * mesh.size)
+    out = _rollout_mjx(hand, TrialParams(*fields), start, impl, mesh)
+    return GraspOutcomes(*(a[:b] for a in out))
 
 
 def peak_touch(substeps, layout: SceneLayout):
@@ -314,7 +328,7 @@ def mjx_template(model: mujoco.MjModel, impl: str, n_worlds: int):
     return mjx.make_data(model, impl="jax")
 
 
-def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl: str) -> GraspOutcomes:
+def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl: str, mesh=None) -> GraspOutcomes:
     model, layout = _scene(hand)
     b = params.goal.shape[0]
     mjx_model = mjx.put_model(model, impl=impl)
@@ -327,8 +341,11 @@ def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl:
     state = initial_state(jparams, layout.n_links)
     # committed to the device like the chunk's outputs, so the second call does not compile again for
     # inputs that differ only in being uncommitted (a compilation costs far more than a chunk's run)
-    mjx_model, grav, data, sensors, state, jparams = jax.device_put(
-        (mjx_model, grav, data, sensors, state, jparams), jax.devices()[0])
+    # (with a mesh: the model replicated, every world's arrays split by world; jit partitions the chunk)
+    one = jax.devices()[0] if mesh is None else NamedSharding(mesh, PartitionSpec())
+    mjx_model = jax.device_put(mjx_model, one)
+    grav, data, sensors, state, jparams = jax.device_put(
+        (grav, data, sensors, state, jparams), one if mesh is None else NamedSharding(mesh, batch_spec(mesh)))
     chunk, deepest = _mjx_chunk(hand, impl), 0
     for _ in range(n_control_steps() // CHUNK):  # chunks of one compiled scan (see `_mjx_chunk`)
         data, sensors, state, chunk_deepest = chunk(mjx_model, grav, data, sensors, state, jparams)
