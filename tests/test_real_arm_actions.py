@@ -34,6 +34,8 @@ def test_leave_one_person_out_on_angles_and_markers(tmp_path):
         assert {f"{prefix}per_person_accuracy_edhmm_{p}" for p in ("P01", "P02")} <= set(metrics)
         assert np.sum(metrics[f"{prefix}confusion_dtw"]) == metrics[f"{prefix}n_test_sequences"] == 32
         assert 0.0 <= metrics[f"{prefix}side_accuracy_phmm"] <= 1.0
+        assert 0.0 <= metrics[f"{prefix}side_accuracy_regression"] <= 1.0
+        assert metrics[f"{prefix}side_error_regression"] >= 0.0 and metrics[f"{prefix}side_error_phmm"] >= 0.0
     assert metrics["accuracy_dtw"] > 0.9  # the simulated actions are distinct curves
     assert metrics["markers_side_accuracy_phmm"] > 0.9  # the side flips the sign of half the features
     report = (tmp_path / "run" / "report.md").read_text()
@@ -93,3 +95,19 @@ def test_config_rejects_bad_values():
         Config(grid_covariance=("spherical",))
     with pytest.raises(ValueError, match="^n_persons"):
         Config(n_persons=1)
+
+
+def test_side_regression_reads_the_final_fingertip():
+    """Markers whose right fingertip ends at x = side (0 or 1) at the frame farthest from the start and
+    returns: the per-action affine baseline maps held-out trials to their side exactly; the other
+    columns (not fingertips) carry a contradicting signal that it must ignore."""
+    from experiments.real_arm_actions.data import Dataset, MARKER_POINTS
+    rng = np.random.default_rng(0)
+    names = tuple(f"{p}_{axis}" for p in MARKER_POINTS for axis in "xyz")
+    side, action = np.arange(24) % 2, (np.arange(24) // 2) % 2
+    features = rng.normal(0, 0.01, (24, 9, len(names)))
+    features[:, :, 0] = 1 - side[:, None]  # RSHO_x: the opposite of the side, not a fingertip
+    features[:, 4, names.index("RFTP_x")] += 2.0 + side
+    data = Dataset(features, action, side, np.repeat(["P1", "P2"], 12), "markers", names)
+    train, test = data.subset(data.person == "P1"), data.subset(data.person == "P2")
+    np.testing.assert_allclose(ev.side_regression(train, test), test.side, atol=0.05)

@@ -85,7 +85,8 @@ def run_method(method: str, folds, cfg, rng: np.random.Generator) -> MethodResul
 
 class SideResult(NamedTuple):
     """The side PHMMs over all folds: recognised action (B,), phi of the true action's PHMM (B,),
-    true action, side (0 left, 1 right) and person (B,); seconds training and recognising."""
+    true action, side (0 left, 1 right) and person (B,); seconds training and recognising; the
+    regression baseline's side estimate (B,) (`side_regression`)."""
 
     action: np.ndarray
     phi: np.ndarray
@@ -94,13 +95,39 @@ class SideResult(NamedTuple):
     person: np.ndarray
     train_s: float
     test_s: float
+    regression: np.ndarray
 
     @property
     def side_correct(self) -> np.ndarray:
         return (self.phi > 0.5) == (self.side == 1)
 
+    @property
+    def regression_correct(self) -> np.ndarray:
+        return (self.regression > 0.5) == (self.side == 1)
+
     def per_person(self, correct: np.ndarray) -> dict[str, float]:
         return {p: float(np.mean(correct[self.person == p])) for p in sorted(set(self.person.tolist()))}
+
+
+def side_regression(train: Dataset, test: Dataset) -> np.ndarray:
+    """The baseline beside the side PHMMs (issue 21): per action, an affine least-squares map from the
+    final fingertip positions to the side (0 left, 1 right), fitted on the training persons. "Final":
+    the frame farthest from the trial's first in those features. Markers: both fingertips (RFTP, LFTP
+    relative to the sternum); the angle files have no fingertip, so there all their columns. Returns
+    the side estimate (B_test,)."""
+    columns = [k for k, n in enumerate(train.names) if "FTP" in n] if train.kind == "markers" else slice(None)
+
+    def final(features):
+        f = features[:, :, columns]
+        hold = np.argmax(np.linalg.norm(f - f[:, :1], axis=-1), axis=1)
+        return np.concatenate([f[np.arange(len(f)), hold], np.ones((len(f), 1))], axis=1)
+
+    f_train, f_test = final(train.features), final(test.features)
+    out = np.zeros(len(f_test))
+    for a in np.unique(test.action):
+        coef, *_ = np.linalg.lstsq(f_train[train.action == a], train.side[train.action == a].astype(float), rcond=None)
+        out[test.action == a] = f_test[test.action == a] @ coef
+    return out
 
 
 def run_side_phmm(folds, settings: list, cfg) -> SideResult | None:
@@ -108,7 +135,7 @@ def run_side_phmm(folds, settings: list, cfg) -> SideResult | None:
     the right-arm ones; synchronised local training, PHMM §III-B1) with the explicit-duration setting
     the fold chose for `edhmm`; recognition (PHMM eq. 3) gives the action and φ; φ > 0.5 reads
     "right". None when a training fold lacks one side of an action."""
-    out = {k: [] for k in ("action", "phi", "truth", "side", "person")}
+    out = {k: [] for k in ("action", "phi", "truth", "side", "person", "regression")}
     train_s = test_s = 0.0
     for (train, test), setting in zip(progress(folds, desc=f"side PHMMs ({folds[0][0].kind})"), settings):
         X_train, X_test = mt.standardise(train.features, test.features)
@@ -123,10 +150,11 @@ def run_side_phmm(folds, settings: list, cfg) -> SideResult | None:
         test_s += seconds
         phi = np.asarray(rec.phi)[np.arange(len(X_test)), test.action, 0]
         for key, value in (("action", np.asarray(rec.label)), ("phi", phi), ("truth", test.action),
-                           ("side", test.side), ("person", test.person)):
+                           ("side", test.side), ("person", test.person),
+                           ("regression", side_regression(train, test))):
             out[key].append(value)
     return SideResult(*(np.concatenate(out[k]) for k in ("action", "phi", "truth", "side", "person")),
-                      train_s, test_s)
+                      train_s, test_s, np.concatenate(out["regression"]))
 
 
 def evaluate(folds, cfg) -> tuple[dict[str, MethodResult], SideResult | None]:

@@ -32,7 +32,10 @@ all folds (JAX compilation included in the first folds); selection time is repor
 is the arm used (L/R). Per action a 1-D PHMM over the side (corner φ = 0 trained on the left-arm
 trials, φ = 1 on the right-arm ones, synchronised local training, PHMM §III-B1) with the fold's
 chosen explicit-duration setting; recognition by gradient (PHMM eq. 3, ε = 0.1) gives the action
-(the best PHMM) and φ; the side is "right" when φ of the true action's PHMM exceeds 0.5."""
+(the best PHMM) and φ; the side is "right" when φ of the true action's PHMM exceeds 0.5. Beside it
+(issue 21), the regression baseline: per action an affine least-squares map from the final fingertip
+positions (the frame farthest from the first; the angle files have no fingertip, so all 11 columns
+there) to the side; metrics `side_error_*` are the mean |φ − side| of both."""
 
 
 def header(cfg, kinds: list[str], runtime_s: float) -> str:
@@ -77,6 +80,10 @@ def section(kind: str, folds, results: dict, side, cfg) -> str:
                      f"{side.test_s:.1f}", "–", "as edhmm", "–"])
         rows.append(["side PHMMs: side (L/R)", *(f"{100 * side_acc[p]:.1f}" for p in persons),
                      f"**{100 * sum(side_acc.values()) / len(side_acc):.1f}**", "", "", "–", "as edhmm", "–"])
+        reg_acc = side.per_person(side.regression_correct)
+        rows.append(["baseline: side (L/R) by linear regression from the final fingertips", *(
+            f"{100 * reg_acc[p]:.1f}" for p in persons), f"**{100 * sum(reg_acc.values()) / len(reg_acc):.1f}**",
+            "", "", "–", "–", "–"])
     table = markdown_table(["method", *persons, "mean", "train s (median fold)", "test s", "selection s",
                             "settings chosen (folds)", f"confusion, rows true {' '.join(ACTIONS)}"], rows)
     side_note = ("" if side is not None else

@@ -20,8 +20,10 @@ from lfd_common import enable_compilation_cache
 KINDS = ("angles", "markers")
 PREFIX = {"angles": "", "markers": "markers_"}  # the issue's keys (accuracy_edhmm, ...) are the angles'
 SUMMARY = ("accuracy_edhmm", "accuracy_hmm", "accuracy_hmmlearn", "accuracy_dtw", "side_accuracy_phmm",
-           "markers_accuracy_edhmm", "markers_accuracy_hmm", "markers_accuracy_hmmlearn", "markers_accuracy_dtw",
-           "markers_side_accuracy_phmm", "runtime_s")
+           "side_accuracy_regression", "markers_accuracy_edhmm", "markers_accuracy_hmm", "markers_accuracy_hmmlearn",
+           "markers_accuracy_dtw", "markers_side_accuracy_phmm", "markers_side_accuracy_regression",
+           "side_error_phmm", "side_error_regression", "markers_side_error_phmm", "markers_side_error_regression",
+           "runtime_s")
 
 
 def folds_for(cfg: Config, kind: str):
@@ -48,6 +50,10 @@ def classification_metrics(results: dict[str, ev.MethodResult], side: ev.SideRes
     if side is not None:
         metrics.update({
             "side_accuracy_phmm": float(side.side_correct.mean()),
+            "side_accuracy_regression": float(side.regression_correct.mean()),
+            "side_error_phmm": float(np.mean(np.abs(side.phi - side.side))),
+            "side_error_regression": float(np.mean(np.abs(side.regression - side.side))),
+            "per_person_side_accuracy_regression": side.per_person(side.regression_correct),
             "action_accuracy_phmm": float((side.action == side.truth).mean()),
             "per_person_side_accuracy_phmm": side.per_person(side.side_correct),
             "train_time_s_phmm": side.train_s, "test_time_s_phmm": side.test_s})
