@@ -6,7 +6,7 @@ import pytest
 import hog_jax
 import sim
 from experiments import grasp_recognition as gr
-from experiments.data.grasp_tests import (STAGES, clutter_background, random_set, sequence_set,
+from experiments.data.grasp_tests import (STAGES, Nuisances, clutter_background, random_set, sequence_set,
                                           skin_training_pixels, stage_subsets)
 
 sim.setup_rendering()  # offscreen rendering (EGL) before any scene is rendered
@@ -90,15 +90,57 @@ def test_experiment_smoke(tmp_path):
     argv = ["--out", str(tmp_path), "--n-azimuth", "8", "--n-elevation", "3", "--render-size", "64",
             "--crop-size", "32", "--n-large", "12", "--n-held-out", "12", "--frame-size", "96", "--k", "3",
             "--k-values", "1,3", "--db-grids", "6x2", "--bins-sweep", "4", "--levels-sweep", "3",
-            "--n-skin-images", "3", "--timing-repeats", "1"]
+            "--n-skin-images", "3", "--timing-repeats", "1",
+            # the paths beyond the paper: randomised views, a network class, LSH tuned on validation images
+            "--n-random-views", "4", "--random-pool", "6", "--n-random-hands", "2", "--classifier", "mlp",
+            "--classifier-epochs", "2", "--lsh-probes", "1", "--lsh-tuning", "validation", "--n-validation", "12", "--ladder", "true"]
     m = gr.main(argv)
     for key in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large", "lsh_recall_at_k", "query_ms",
                 "orientation_geodesic_error_deg_X"):
         assert key in m
     assert all(0.0 <= m[k] <= 1.0 for k in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large"))
-    assert m["n_database_views"] == 6 * 24 and m["n_test_X"] == 36
+    assert m["n_database_views"] == 6 * (24 + 4) and m["n_test_X"] == 36
+    assert len(m["ladder_accuracy"]) == 6 and 0.0 <= m["lsh_recall_at_k_test_queries"] <= 1.0
     saved = json.loads((tmp_path / "metrics.json").read_text())
     assert len(saved["orientation_error_deg"]) == 3
-    for png in ("confusion.png", "orientation.png", "neighbours.png", "sweeps.png", "contact_sheet.png"):
+    for png in ("confusion.png", "orientation.png", "neighbours.png", "sweeps.png", "contact_sheet.png", "ladder.png"):
         assert (tmp_path / png).stat().st_size > 1000
     assert "61 %" in (tmp_path / "report.md").read_text()
+
+
+def test_symmetric_error_is_the_smallest_error_over_the_objects_symmetries():
+    """Closed form (cylinders, disc, ball) and quarter turns (cube) against a dense search over θ."""
+    rng = np.random.default_rng(2)
+    q = lambda e: np.asarray(hog_jax.euler_to_quat(np.asarray(e, np.float32)), float)
+    e1 = np.column_stack([rng.uniform(-np.pi, np.pi, 40), rng.uniform(-1.4, 1.4, 40), rng.uniform(-0.5, 0.5, 40)])
+    e2 = e1 + rng.normal(0, 0.6, e1.shape)
+    labels = np.arange(40) % 6
+    sym = gr.symmetric_errors_deg(q(e1), q(e2), labels)
+    _, plain = gr.orientation_errors_deg(e1, e2, q(e1), q(e2))
+    for i in range(40):
+        order = {9: 4}.get(gr.GRASP_CLASSES[labels[i]], 0)
+        thetas = np.arange(4) * np.pi / 2 if order else np.linspace(-np.pi, np.pi, 7201)
+        shifted = np.column_stack([e1[i, 0] + thetas, np.full_like(thetas, e1[i, 1]), np.full_like(thetas, e1[i, 2])])
+        _, g = gr.orientation_errors_deg(shifted, np.tile(e2[i], (len(thetas), 1)), q(shifted),
+                                         np.tile(q(e2[i:i + 1]), (len(thetas), 1)))
+        assert sym[i] == pytest.approx(g.min(), abs=0.05)
+    assert np.all(sym <= plain + 1e-3)
+
+
+def test_nuisances_switch_off_one_difference_at_a_time(x_set):
+    """The ladder's renders share every draw with the full test: same views, grasps and stages; without
+    clutter and photometric changes the background is black, without posture the hand is the grasp's."""
+    bare = sequence_set(seed=3, frame_size=64, nuisances=Nuisances(posture=False, photometric=False, clutter=False))
+    posed = sequence_set(seed=3, frame_size=64, nuisances=Nuisances(posture=True, photometric=False, clutter=False))
+    for a in (bare, posed):
+        np.testing.assert_array_equal(a.euler, x_set.euler)
+        np.testing.assert_array_equal(a.stage, x_set.stage)
+        background = a.frames[~(a.hand_masks | x_set.hand_masks)].max(-1)
+        assert np.mean(background > 30) < 0.01 and np.median(background) == 0  # black (hand edges aside)
+    assert np.mean(x_set.frames[~x_set.hand_masks].max(-1) > 30) > 0.5     # the full test's clutter
+    # the completed grasp (stage 2) differs only by joint noise; the reach stage 0 is far from the grasp
+    overlap = lambda a, b: (a & b).sum((1, 2)) / (a | b).sum((1, 2))
+    iou = overlap(bare.hand_masks, posed.hand_masks)
+    assert np.median(iou[x_set.stage == 0]) < np.median(iou[x_set.stage == 2])
+    with pytest.raises(ValueError, match="nuisances"):
+        sequence_set(seed=3, frame_size=64, nuisances=(True, True, True))

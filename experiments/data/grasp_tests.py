@@ -78,24 +78,56 @@ def _object_direction(grasp: int, shape: HandShape) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
+class Nuisances(NamedTuple):
+    """Which of the test images' differences from the database are switched on (the ladder of issue 20).
+
+    posture: the reach stage's posture and object distance and the uniform joint noise (off: the grasp's
+    exact posture, object grasped); photometric: random lighting, object colour, blur and camera noise
+    (off: the database's lighting and black object, a clean image); clutter: the cluttered background
+    (off: black). The hand shape is `shape` of the set. Every random draw is taken whether a nuisance is
+    on or not, so images of the same seed differ only in the nuisances switched."""
+
+    posture: bool = True
+    photometric: bool = True
+    clutter: bool = True
+
+
+ALL_NUISANCES = Nuisances()
+
+
 def _render_one(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, stage: int, azimuth: float,
-                elevation: float, frame: int, shape: HandShape, joint_noise_deg: float, with_clutter: bool):
+                elevation: float, frame: int, shape: HandShape, joint_noise_deg: float, with_clutter: bool,
+                nuisances: Nuisances = ALL_NUISANCES):
     """One test frame: posture, object distance, lighting, camera, clutter, noise and blur."""
     joints = posture(grasp, _STAGE_POSTURE[stage]) + rng.uniform(-joint_noise_deg, joint_noise_deg, 20)
-    renderer.set_posture(clip_posture(joints))
-    renderer.set_object_offset(_object_direction(grasp, shape) * _STAGE_OBJECT_DISTANCE_M[stage])
-    renderer.set_lighting(rng.uniform(0.2, 0.5), rng.uniform(0.4, 0.9),
-                          [rng.uniform(-1, 1), rng.uniform(-1, 1), -rng.uniform(0.3, 1.0)])
-    renderer.set_object_rgba([*rng.uniform(0.0, 0.12, 3), 1.0])
+    renderer.set_posture(clip_posture(joints) if nuisances.posture else posture(grasp, 1.0))
+    distance = _STAGE_OBJECT_DISTANCE_M[stage] if nuisances.posture else 0.0
+    renderer.set_object_offset(_object_direction(grasp, shape) * distance)
+    lighting = (rng.uniform(0.2, 0.5), rng.uniform(0.4, 0.9),
+                [rng.uniform(-1, 1), rng.uniform(-1, 1), -rng.uniform(0.3, 1.0)])
+    object_rgba = [*rng.uniform(0.0, 0.12, 3), 1.0]
+    if nuisances.photometric:
+        renderer.set_lighting(*lighting)
+        renderer.set_object_rgba(object_rgba)
     target = hand_center(grasp, shape) + rng.normal(0.0, 0.02, 3)
     rgb, hand, obj = renderer.render_with_mask(*sphere_camera(azimuth, elevation, rng.uniform(0.55, 0.75), target=target))
     img = rgb.astype(np.float32)
     if with_clutter:
-        fg = (hand | obj)[..., None]
-        img = np.where(fg, img, clutter_background(rng, frame).astype(np.float32))
-    img = cv2.GaussianBlur(img, (0, 0), rng.uniform(0.3, 1.2))
-    img += rng.normal(0.0, rng.uniform(2.0, 8.0), img.shape)
+        background = clutter_background(rng, frame).astype(np.float32)
+        if nuisances.clutter:
+            img = np.where((hand | obj)[..., None], img, background)
+    blur, noise = rng.uniform(0.3, 1.2), rng.normal(0.0, rng.uniform(2.0, 8.0), img.shape)
+    if nuisances.photometric:
+        img = cv2.GaussianBlur(img, (0, 0), blur)
+        img += noise  # in place, in float32, as the sets were first rendered
     return np.clip(np.round(img), 0, 255).astype(np.uint8), hand
+
+
+def _nuisance_key(nuisances: Nuisances) -> dict:
+    """Cache-key entries of the nuisances; none for the full test conditions (their sets keep their keys)."""
+    if not isinstance(nuisances, Nuisances):
+        raise ValueError(f"nuisances: expected a Nuisances, got {type(nuisances).__name__}")
+    return {} if nuisances == ALL_NUISANCES else {"nuisances": repr(tuple(nuisances))}
 
 
 def _cached(name: str, settings: dict, build):
@@ -110,7 +142,7 @@ def _cached(name: str, settings: dict, build):
     return out
 
 
-def _render_set(rng, grasp_idx, stages, azimuths, elevations, frame, shape, joint_noise_deg, progress):
+def _render_set(rng, grasp_idx, stages, azimuths, elevations, frame, shape, joint_noise_deg, nuisances, progress):
     n = len(grasp_idx)
     frames = np.zeros((n, frame, frame, 3), np.uint8)
     masks = np.zeros((n, frame, frame), bool)
@@ -125,7 +157,7 @@ def _render_set(rng, grasp_idx, stages, azimuths, elevations, frame, shape, join
                     renderer.close()
                 renderer, current = GraspRenderer(g, frame, frame, shape), g
             frames[i], masks[i] = _render_one(renderer, rng, g, stages[i], azimuths[i], elevations[i], frame,
-                                              shape, joint_noise_deg, True)
+                                              shape, joint_noise_deg, True, nuisances)
     finally:
         if renderer is not None:
             renderer.close()
@@ -135,7 +167,8 @@ def _render_set(rng, grasp_idx, stages, azimuths, elevations, frame, shape, join
 
 
 def sequence_set(seed: int = 0, frame_size: int = 160, shape: HandShape = TEST_SHAPE,
-                 joint_noise_deg: float = 15.0, view_jitter_deg: float = 2.0, progress=None) -> GraspTestSet:
+                 joint_noise_deg: float = 15.0, view_jitter_deg: float = 2.0, nuisances: Nuisances = ALL_NUISANCES,
+                 progress=None) -> GraspTestSet:
     """GRASP's test set X (36 images, see the module docstring). Viewpoints: azimuth 3 deg off the
     database's 6-degree azimuth grid and elevation on the borders between its elevation bands, then
     jittered by up to `view_jitter_deg` (< 3, so it stays off the grid) per snapshot (the hand moves
@@ -157,15 +190,15 @@ def sequence_set(seed: int = 0, frame_size: int = 160, shape: HandShape = TEST_S
                     az.append(a0 + rng.uniform(-view_jitter_deg, view_jitter_deg))
                     el.append(e0 + rng.uniform(-view_jitter_deg, view_jitter_deg))
         return _render_set(rng, np.array(g_idx), np.array(stages), np.array(az), np.array(el), frame_size, shape,
-                           joint_noise_deg, progress)
+                           joint_noise_deg, nuisances, progress)
 
     return _cached("X", dict(seed=seed, frame_size=frame_size, shape=shape, joint_noise_deg=joint_noise_deg,
-                             view_jitter_deg=view_jitter_deg), build)
+                             view_jitter_deg=view_jitter_deg, **_nuisance_key(nuisances)), build)
 
 
 def random_set(n: int, seed: int = 0, frame_size: int = 160, shape: HandShape = TEST_SHAPE,
                joint_noise_deg: float = 15.0, min_elevation_deg: float = 5.0, max_elevation_deg: float = 80.0,
-               progress=None) -> GraspTestSet:
+               nuisances: Nuisances = ALL_NUISANCES, progress=None) -> GraspTestSet:
     """n random test images: grasp and stage uniform, viewpoint uniform in azimuth and in elevation
     within [min_elevation_deg, max_elevation_deg] (off the grid with probability 1)."""
     n = check_int(n, "n", min_value=1, max_value=100_000)
@@ -179,10 +212,10 @@ def random_set(n: int, seed: int = 0, frame_size: int = 160, shape: HandShape = 
         g_idx = rng.integers(0, len(GRASP_CLASSES), n)
         stages = rng.integers(0, len(STAGES), n)
         return _render_set(rng, g_idx, stages, rng.uniform(0.0, 360.0, n), rng.uniform(lo, hi, n), frame_size,
-                           shape, joint_noise_deg, progress)
+                           shape, joint_noise_deg, nuisances, progress)
 
     return _cached(f"random{n}", dict(n=n, seed=seed, frame_size=frame_size, shape=shape, lo=lo, hi=hi,
-                                      joint_noise_deg=joint_noise_deg), build)
+                                      joint_noise_deg=joint_noise_deg, **_nuisance_key(nuisances)), build)
 
 
 # skin tones for the skin colour model: lighter than, equal to and darker than the database hand,
@@ -222,5 +255,5 @@ def stage_subsets(stage: np.ndarray) -> dict[str, np.ndarray]:
     return {"X": np.ones(stage.shape, bool), "Xp": stage >= 1, "Xpp": stage == 2}
 
 
-__all__ = ["GraspTestSet", "STAGES", "clutter_background", "random_set", "sequence_set", "skin_training_pixels",
+__all__ = ["ALL_NUISANCES", "GraspTestSet", "Nuisances", "STAGES", "clutter_background", "random_set", "sequence_set", "skin_training_pixels",
            "stage_subsets"]

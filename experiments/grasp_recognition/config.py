@@ -30,10 +30,42 @@ class Config:
     bins_sweep: tuple[int, ...] = (3, 4, 5, 6, 8)
     levels_sweep: tuple[int, ...] = (2, 3, 4, 5)
     timing_repeats: int = 5
+    # issue 20: the database, features, metric and index beyond the paper (defaults: the paper's method)
+    n_random_views: int = 0          # domain-randomised views per grasp added to the grid (0: none) ...
+    random_pool: int = 8100          # ... drawn at random from a rendered pool of this many per grasp
+    n_random_hands: int = 30         # random hands per grasp the pool is spread over
+    hog_binning: str = "hard"
+    hog_normalize: str = "global"
+    metric: str = "none"             # none | lda (whitened LDA fitted on the database)
+    metric_shrinkage: float = 0.1
+    metric_components: int = 0       # 0: all D (whitening only)
+    lsh_tuning: str = "database"     # database: held-out database-like views; validation: query-like images
+    lsh_probes: int = 0              # multi-probe: buckets read per table besides the query's
+    classifier: str = "knn"          # knn (eq. 3) | mlp (on HOG) | cnn (on the crops); orientation: eq. 4
+    classifier_hidden: int = 512
+    classifier_epochs: int = 30
+    skin_adaptation: str = "none"    # none | background | both: the skin model adapted to each frame
+    n_validation: int = 300          # validation images (their own seed and hand) for tuning
+    ladder: bool = True              # the six-rung ladder of where the accuracy goes
+    sweeps: bool = True              # accuracy against k, database size, B x L
 
     def __post_init__(self):
         if min(self.n_azimuth, self.n_elevation, self.k, self.n_large, self.n_held_out, self.timing_repeats) < 1:
             raise ValueError("n_azimuth, n_elevation, k, n_large, n_held_out and timing_repeats must be >= 1")
+        if min(self.n_random_views, self.lsh_probes, self.metric_components) < 0 or self.n_random_hands < 1:
+            raise ValueError("n_random_views, lsh_probes, metric_components must be >= 0, n_random_hands >= 1")
+        if self.n_random_views > self.random_pool or self.random_pool < self.n_random_hands:
+            raise ValueError("random_pool: must be >= n_random_views and >= n_random_hands")
+        for name, value, choices in (("hog_binning", self.hog_binning, ("hard", "soft")),
+                                     ("hog_normalize", self.hog_normalize, ("global", "cell", "none")),
+                                     ("metric", self.metric, ("none", "lda")),
+                                     ("lsh_tuning", self.lsh_tuning, ("database", "validation")),
+                                     ("skin_adaptation", self.skin_adaptation, ("none", "background", "both")),
+                                     ("classifier", self.classifier, ("knn", "mlp", "cnn"))):
+            if value not in choices:
+                raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
+        if not 0.0 <= self.metric_shrinkage <= 1.0:
+            raise ValueError("metric_shrinkage: must be in [0, 1]")
         if not 0.0 < self.lsh_target_recall <= 1.0:
             raise ValueError("lsh_target_recall: must be in (0, 1]")
         if self.crop_size < 2 ** (max(self.levels_sweep + (self.n_levels,)) - 1):
@@ -44,7 +76,8 @@ class Config:
 
 PRESETS = {
     "quick": {"n_azimuth": 30, "n_elevation": 8, "n_large": 60, "n_held_out": 60, "k_values": (1, 5, 10, 20),
-              "db_grids": ("20x5", "30x8"), "bins_sweep": (3, 8), "levels_sweep": (2, 3), "timing_repeats": 3},
+              "db_grids": ("20x5", "30x8"), "bins_sweep": (3, 8), "levels_sweep": (2, 3), "timing_repeats": 3,
+              "ladder": False, "n_validation": 60},
     "paper": {},
 }
 

@@ -7,6 +7,7 @@ import numpy as np
 import hog_jax
 from experiments.config import progress
 from experiments.grasp_recognition.config import Config, parse_grid
+from lfd_common import quat_to_matrix
 from sim.grasp_objects import GRASP_CLASSES, GRASP_MAPPINGS
 from sim.grasp_views import render_views, view_database
 
@@ -29,15 +30,22 @@ def held_out_views(cfg: Config):
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
-def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64):
+def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64, adaptation: str = "none"):
     """Skin segmentation of test frames (N, H, W, 3), seeded at the frame centre (where the camera aims):
-    (images (N, S, S), masks (N, S, S), found (N,)). `chunk` frames per call bounds the memory."""
+    (images (N, S, S), masks (N, S, S), found (N,)). `chunk` frames per call bounds the memory.
+    adaptation: "none" (the global skin model), "background" or "both" (`hog_jax.segment_adapted`: the
+    background mixture, or both mixtures, adapted to each frame; relevance 64 pixels, 5 iterations,
+    chosen on validation images by the skin mask's IoU)."""
     n, h, w, _ = frames.shape
     parts = []
     for i in range(0, n, chunk):
         part = frames[i: i + chunk]
-        seg = hog_jax.segment(skin, part, seed_points=np.tile([h / 2.0, w / 2.0], (len(part), 1)),
-                              out_size=crop_size)
+        seeds = np.tile([h / 2.0, w / 2.0], (len(part), 1))
+        if adaptation == "none":
+            seg = hog_jax.segment(skin, part, seed_points=seeds, out_size=crop_size)
+        else:
+            seg = hog_jax.segment_adapted(skin, part, seed_points=seeds, out_size=crop_size, n_iter=5, relevance=64.0,
+                                          adapt_skin=adaptation == "both")
         parts.append((np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)))
     return tuple(np.concatenate([p[j] for p in parts]) for j in range(3))
 
@@ -72,6 +80,28 @@ def orientation_errors_deg(pred_euler, true_euler, pred_quat, true_quat) -> tupl
     d = np.abs((d + 180.0) % 360.0 - 180.0)
     dot = np.abs(np.sum(np.asarray(pred_quat, float) * np.asarray(true_quat, float), -1))
     return d, np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+
+
+# the order of each grasp object's rotational symmetry about its vertical axis (the world z axis, see
+# `sim.grasp_objects`): cylinders, the disc and the ball have no defined azimuth, the cube one of 4 quarter turns
+_SYMMETRY_ORDER = {1: 0, 2: 0, 4: 0, 9: 4, 10: 0, 12: 0}
+
+
+def symmetric_errors_deg(pred_quat, true_quat, labels) -> np.ndarray:
+    """(N,) geodesic error in degrees modulo the grasped object's symmetry about its axis: the smallest
+    angle between R_true and Rz(θ) R_pred over the rotations Rz(θ) that map the object of class `labels`
+    onto itself (every θ for the cylinders, disc and ball, in closed form: max_θ tr(Rz(θ) M) = M_zz +
+    |(M_xx + M_yy, M_xy - M_yx)| for M = R_pred R_true^T; quarter turns for the cube). Rows with a NaN
+    prediction give NaN."""
+    p = quat_to_matrix(np.asarray(pred_quat, float))
+    t = quat_to_matrix(np.asarray(true_quat, float))
+    m = p @ np.swapaxes(t, -1, -2)
+    order = np.array([_SYMMETRY_ORDER[GRASP_CLASSES[i]] for i in np.asarray(labels)], int)
+    continuous = m[..., 2, 2] + np.hypot(m[..., 0, 0] + m[..., 1, 1], m[..., 0, 1] - m[..., 1, 0])
+    quarter = [m[..., 2, 2] + np.cos(a) * (m[..., 0, 0] + m[..., 1, 1]) + np.sin(a) * (m[..., 0, 1] - m[..., 1, 0])
+               for a in np.arange(4) * np.pi / 2]
+    trace = np.where(order == 0, continuous, np.max(quarter, axis=0))
+    return np.degrees(np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)))
 
 
 def confusion(true, pred, n: int) -> np.ndarray:

@@ -117,3 +117,28 @@ def plot_contact_sheet(db, X, seg_images, per_view: int):
                          va="center", fontsize=7)
     fig.suptitle("Database views (database hand), test frames (test hand) and their skin segmentation", fontsize=9)
     return fig
+
+
+def plot_ladder(m: dict):
+    """Accuracy (with its 95 % interval on the large set) and geodesic orientation error down the ladder."""
+    names = m["ladder_rungs"]
+    r = np.arange(1, len(names) + 1)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5))
+    acc = np.array(m["ladder_accuracy_large"])
+    lo, hi = np.array(m["ladder_accuracy_large_ci95_low"]), np.array(m["ladder_accuracy_large_ci95_high"])
+    a1.errorbar(r, acc, yerr=[acc - lo, hi - acc], fmt="o-", capsize=3, label="large set (95 % interval)")
+    for key, label in (("ladder_accuracy_X", "X"), ("ladder_accuracy_Xp", "X'"), ("ladder_accuracy_Xpp", "X''")):
+        a1.plot(r, m[key], "s--", alpha=0.7, label=label)
+    a1.axhline(1 / 6, color="0.5", lw=0.8, ls=":", label="chance")
+    a1.set_ylim(0, 1)
+    a1.set_ylabel("accuracy")
+    a2.plot(r, m["ladder_orientation_geodesic_error_deg_large"], "o-", label="large, all images")
+    a2.plot(r, m["ladder_orientation_geodesic_error_deg_large_correct"], "o-", label="large, correctly classified")
+    a2.set_ylabel("geodesic orientation error (deg)")
+    for ax in (a1, a2):
+        ax.set_xticks(r, [f"{i}. {n}" for i, n in zip(r, names)], rotation=25, ha="right", fontsize=7)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Where the accuracy goes: one more difference from the database per rung")
+    fig.tight_layout()
+    return fig
