@@ -10,14 +10,14 @@ of `exact`; LSH: `lsh`'s query on its own tables), the shards' (Q, k) lists are 
 Row ids in results are rows of the whole (unpadded) database, processes in order.
 
 The sharded LSH index hashes with the same hyperplanes as `lsh.build_index` with the same key, through
-the global data mean (a psum), and padding rows go to bucket -1, which no query reads. Each shard
-reads up to C slots of the query's bucket in each of its tables, so the candidates are the union of
-the shards' buckets: the same set as one device's whenever no bucket holds more than C points
-(then the results are equal), and a superset otherwise (the shards together read up to S C slots).
+the mean of all rows (one jitted reduction over the split array), and padding rows go to bucket -1,
+which no query reads. Each shard reads up to C slots of every bucket the query reads (its own and
+`n_probes` neighbours) in each of its tables, so the candidates are the union of the shards'
+buckets: the same set as one device's whenever no bucket holds more than C points (then the results
+are equal), and a superset otherwise (the shards together read up to S C slots per bucket).
 """
 from __future__ import annotations
 
-from functools import partial
 from typing import NamedTuple
 
 import jax
@@ -88,6 +88,7 @@ def exact_search_sharded(data: np.ndarray, queries: np.ndarray, k: int, mesh: Me
 
 @jax.jit
 def _masked_mean(data, mask):
+    """The mean (D,) of the rows of data (N', D) where mask (N',) is True."""
     w = mask.astype(data.dtype)
     return w @ data / jnp.sum(w)
 

@@ -20,7 +20,6 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 from jax.experimental import multihost_utils
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
@@ -137,6 +136,7 @@ def unshard(mesh: Mesh, tree, n_local: int):
 
 @functools.lru_cache(maxsize=None)
 def _compiled(fn: Callable, mesh: Mesh, n_shared: int, n_batched: int, static: tuple, out_batched: bool):
+    """The jitted `shard_map` of `fn` (see `sharded_call`), built once per arguments."""
     spec = batch_spec(mesh)
     body = functools.partial(fn, **dict(static)) if static else fn
     return jax.jit(jax.shard_map(body, mesh=mesh, in_specs=(PartitionSpec(),) * n_shared + (spec,) * n_batched,
@@ -150,7 +150,10 @@ def sharded_call(fn: Callable, mesh: Mesh, shared: tuple, batched: tuple, *, sta
     split along axis 0 (`ShardedBatch.arrays`, its mask); `static` is a tuple of (name, hashable
     value) keyword options. `fn` sees its shard's rows (B'/S, ...) and may reduce over the mesh with
     `jax.lax.psum(x, tuple(mesh.axis_names))`. Its results are per-row (`out_batched`: returned as
-    global padded arrays) or the same on every shard (returned replicated)."""
+    global padded arrays) or the same on every shard (returned replicated). The map runs with
+    `check_vma=False` (kernels written for one device, scans included, run as they are), so `fn`
+    must not be differentiated through a collective: take gradients inside the shard, or let XLA
+    partition a jitted function of the split arrays (as `crf_jax.fit_chain` does)."""
     call = _compiled(fn, mesh, len(shared), len(batched), tuple(static), out_batched)
     return call(*replicate(mesh, tuple(shared)), *batched)
 
