@@ -5,7 +5,7 @@ movements) and by `--test-subjects` other persons. Never the study's test set: s
 study uses seed 0), and every choice made here is made on these numbers.
 
     python experiments/validation/phmm_persons.py OUT [--seed 1] [--variants all,hand,...] [--states 20,30]
-        [--epsilon 0.1,0.5] [--reg-covar 1e-4,1e-3] [--covariance full,diag]
+        [--epsilon 0.1,0.5] [--reg-covar 1e-4,1e-3] [--covariance full,diag] [--tied]
 
 For every variant (features, number of states, search box ε, covariance floor and type) it prints and writes to OUT/persons.json:
 mean position error (cm) of the PHMM of the true action and of the regression baseline
@@ -67,6 +67,15 @@ def pointing_ray(m, reach: float = 10.0) -> np.ndarray:
     return (knuckle + np.maximum(t, 0.0)[..., None] * d)[..., :2]
 
 
+def tie_covariances(phmm: P.PHMM) -> P.PHMM:
+    """The PHMM with every grid corner's state covariances replaced by their mean over the corners
+    (one covariance per state, as the global HMM of the synchronised training has; the means and
+    durations stay local)."""
+    local = phmm.local
+    return P.PHMM(local.replace(covariances=np.broadcast_to(np.asarray(local.covariances).mean(0),
+                                                             local.covariances.shape)), phmm.grid_shape)
+
+
 def person_data(seed: int, n_train: int, n_test: int, train_reps: int, test_reps: int):
     """(train, same-person test, held-out test) `tt.Recordings` and the person index of each test movement."""
     rng = np.random.default_rng(seed)
@@ -107,6 +116,7 @@ def main(argv=None):
     ap.add_argument("--epsilon", default="0.1")
     ap.add_argument("--reg-covar", default="1e-4", help="covariance floors (m²), FitOptions.reg_covar")
     ap.add_argument("--covariance", default="full", help="covariance types: full, diag")
+    ap.add_argument("--tied", action="store_true", help="covariances tied over the grid corners (`tie_covariances`)")
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--n-iter", type=int, default=20)
     args = ap.parse_args(argv)
@@ -134,11 +144,13 @@ def main(argv=None):
             options = P.FitOptions(max_iter=args.n_iter, reg_covar=reg_covar)
             models = [P.fit_phmm(list(F_train[train.action == a].reshape(9, args.train_reps, *F_train.shape[1:])),
                                  (3, 3), config, options=options) for a in range(len(tt.ACTIONS))]
+            if args.tied:
+                models = [tie_covariances(m) for m in models]
             for epsilon in map(float, args.epsilon.split(",")):
                 for name, (X, rec, person) in tests.items():
                     r = P.recognize(models, features(X, variant), epsilon=epsilon, n_steps=args.steps)
                     phi = np.asarray(r.phi)[np.arange(len(X)), rec.action]
-                    key = f"{name}/{variant}/N{n_states}/eps{epsilon:g}/reg{reg_covar:g}/{covariance}"
+                    key = f"{name}/{variant}/N{n_states}/eps{epsilon:g}/reg{reg_covar:g}/{covariance}{'/tied' * args.tied}"
                     results[key] = {**summarise(phi_to_position(corners, phi), rec.target, person, rec.action, phi,
                                                 epsilon),
                                     "rate": float(np.mean(np.asarray(r.label) == rec.action)),
