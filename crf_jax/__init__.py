@@ -18,7 +18,8 @@ for float32), later the last finite parameters come back with info.diverged set 
 
 Linear-chain CRF (eqs. 3-4)
     fit_chain(X, y, lengths, n_labels=, connectivity=0, l2=1.0, validation=(Xv, yv[, lv]),
-              options=FitOptions())                 -> FitResult(ChainCRF, TrainInfo)   y (B, T)
+              options=FitOptions(), mesh=None)      -> FitResult(ChainCRF, TrainInfo)   y (B, T)
+                                                       mesh: data-parallel over a jax.sharding.Mesh
     predict(model, X, lengths)                       -> (B, T) Viterbi labels, -1 on padding
     predict_marginals(model, X, lengths)             -> (B, T, K) P(y_t = k | x), each real row sums to 1
     segment_log_probs(model, X, lengths)             -> (B, K) log P(y_t = k for all t | x)  (pre-segmented, §4)

@@ -24,6 +24,9 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
   -> `LSHResult(indices, distances, n_scanned)`, `tune(key, data, held_out, k, target_recall)`,
   `recall_at_k`.
 * Exact search: `exact_search(data, queries, k)` -> `LSHResult` (the drop-in for `query`).
+* Sharded over a `jax.sharding.Mesh` (`mesh=`): `hog`, `exact_search`, `build_index` (a `ShardedLSHIndex`
+  that `query` accepts: rows split, queries broadcast, top k merged; `lsh_sharded`), `run_background_batch`
+  and `segment_video` (see `lfd_common.sharding`).
 * A learned metric: `fit_metric(x (N, D), labels (N,), shrinkage, n_components)` -> `LinearMetric`
   (whitened LDA), `apply_metric(metric, x)` -> (N, D'): index and query the transformed features.
 * kNN: `fit(data, labels, orientations)` -> `KNNModel`

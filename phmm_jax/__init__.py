@@ -11,7 +11,9 @@ Models
     PHMM           local HMMs stacked over the C grid corners, grid_shape (g_1, ..., g_d)
     expand_to_dense(hmm) -> DenseHMM   the equivalent ordinary HMM over N·P pseudo-states
 
-Inference (X: (B, T, D) with lengths (B,), a (T, D) sequence, or a list of (T_b, D) arrays)
+Inference (X: (B, T, D) with lengths (B,), a (T, D) sequence, or a list of (T_b, D) arrays; every batch
+entry point below, fit_hmm and recognize included, takes mesh=: a jax.sharding.Mesh to split the batch over,
+see lfd_common.sharding)
     log_likelihood(hmm, X, lengths)  -> (B,)
     posteriors(hmm, X, lengths)      -> Posteriors(state (B, T, N), pseudo (B, T, N, P), loglik (B,))
     messages(hmm, X, lengths)        -> Messages(log_alpha, log_beta (B, T, N, P), loglik (B,))
