@@ -79,8 +79,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from hog_jax.levelset_ops import (contour_length, curvature, dirac, divergence, heaviside, laplacian, max_others,
                                   resize, signed_distance, sq_edt, unit_normal)
+from hog_jax.levelset_sharded import sharded_kernel
 from lfd_common import as_array, check_int, check_real
-from lfd_common.sharding import check_mesh, map_batch
 
 __all__ = ["LevelSetOptions", "LevelSetResult", "LevelSetStructure", "contour_length", "curvature", "dirac",
            "evolve", "heaviside", "init_level_sets", "segment_video", "signed_distance"]
@@ -330,27 +330,17 @@ def _kernel(structure: LevelSetStructure, model, data, phi0, cold0, o, batched: 
     return jax.vmap(video)(data, phi0)
 
 
-def _kernel_shard(cold0, o, data, phi0, *, structure: LevelSetStructure, model, frames: bool) -> LevelSetResult:
-    """`_kernel` on one shard's videos (B/S, T, ...) of a batch split over a mesh."""
-    return _kernel(structure, model, data, phi0, cold0, o, True, frames)
-
-
 def run(structure: LevelSetStructure, model, data: np.ndarray, phi0, options: LevelSetOptions, batched: bool,
-        frames: bool, mesh=None) -> LevelSetResult:
-    """Check phi0 and the options, run the kernel. data (B, T, ...) numpy, checked by the caller;
-    phi0 None (cold start) or (R, H, W) / (B, R, H, W) as `batched`; frames: independent frames;
-    mesh: None, or a `jax.sharding.Mesh` to split the B videos over (`lfd_common.map_batch`)."""
+        frames: bool, kernel=_kernel) -> LevelSetResult:
+    """Check phi0 and the options, run `kernel` (or a drop-in). data (B, T, ...) numpy, checked by the caller;
+    phi0 None (cold start) or (R, H, W) / (B, R, H, W) as `batched`; frames: independent frames."""
     shape = (data.shape[0], structure.n_regions, *structure.shape)
     if phi0 is None:
         start = np.zeros(shape, np.float32)
     else:
         start = as_array(phi0, "phi0", shape=shape if batched else shape[1:], dtype=np.float32).reshape(shape)
-    o, cold0 = check_options(options), np.bool_(phi0 is None)
-    if mesh is not None:
-        res = map_batch(_kernel_shard, mesh, (cold0, o), (data, start),
-                        static=(("structure", structure), ("model", model), ("frames", frames)))
-        return res if batched else jax.tree_util.tree_map(lambda a: a[0], res)
-    return _kernel(structure, model, jnp.asarray(data), start, cold0, o, batched, frames)
+    return kernel(structure, model, jnp.asarray(data), start, np.bool_(phi0 is None), check_options(options),
+                  batched, frames)
 
 
 # ------------------------------------------------------------------------------ public API
@@ -400,16 +390,11 @@ def evolve(structure: LevelSetStructure, scores: Float[ArrayLike, "*batch R H W"
 def segment_video(structure: LevelSetStructure, scores: Float[ArrayLike, "*batch T R H W"],
                   phi0: Float[ArrayLike, "*batch R H W"] | None = None,
                   options: LevelSetOptions = LevelSetOptions(), *, mesh=None) -> LevelSetResult:
-    """Segment a video (T, R, H, W) or a batch of videos (B, T, R, H, W) of scores, each frame
-    starting from the previous frame's level sets (TR §3.7; a lax.scan over frames, vmap over
-    videos); frame 0 from phi0 ((R, H, W) or (B, R, H, W)) or, when None, cold. Returns a
-    `LevelSetResult` with leading axes (T,) or (B, T). ValueError as `evolve` (and for T = 0).
-
-    mesh: a `jax.sharding.Mesh` (or None: one device). The videos are split over its devices
-    (padded to the mesh, the padding cut off), each device segments its own; the result equals the
-    one-device result. With several processes each passes its own videos and gets its own back."""
-    mesh = check_mesh(mesh)
+    """Segment a video (T, R, H, W) or a batch of videos (B, T, R, H, W) of scores, each frame starting from
+    the previous frame's level sets (TR §3.7; a lax.scan over frames, vmap over videos); frame 0 from phi0
+    ((R, H, W) or (B, R, H, W)) or, when None, cold. Returns a `LevelSetResult` with leading axes (T,) or
+    (B, T). ValueError as `evolve` (and for T = 0). mesh: split the videos over it (`levelset_sharded`)."""
     arr = check_scores(scores, structure, (4, 5))
     batched = arr.ndim == 5
     x = arr if batched else arr[None]
-    return run(structure, FIXED, x, phi0, options, batched, frames=False, mesh=mesh)
+    return run(structure, FIXED, x, phi0, options, batched, False, _kernel if mesh is None else sharded_kernel(mesh))
