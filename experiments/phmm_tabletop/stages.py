@@ -129,13 +129,14 @@ def recognition_stage(cfg: Config, d: Data, models: dict) -> StageResult:
             "noise_aware": noise(aware_rate)},
     }
     n_pos, shape = d.n_positions, (cfg.test_rows, cfg.test_cols)
-    per_pos = {g: np.bincount(d.pos_index, err0[g], n_pos) / np.bincount(d.pos_index, minlength=n_pos)
-               for g in GRIDS}
+    per_position = lambda e: np.bincount(d.pos_index, e, n_pos) / np.bincount(d.pos_index, minlength=n_pos)  # noqa: E731
+    per_pos = {**{f"{g} PHMM (both actions)": per_position(err0[g]) for g in GRIDS},
+               "regression from the final finger": per_position(regression_err[0.0])}
     wrong = {f"{g} PHMM, {a}": 100 * np.bincount(d.pos_index[test.action == k],
                                                  labels[g, 0.0][test.action == k] != k, n_pos)
              / cfg.test_repetitions for g in GRIDS for k, a in enumerate(tt.ACTIONS)}
     figures = {
-        "param_error_maps.png": plots.plot_maps({f"{g} PHMM (both actions)": per_pos[g] for g in GRIDS}, shape,
+        "param_error_maps.png": plots.plot_maps(per_pos, shape,
                                                 "Parameter (table position) error per test position"),
         "classification_error_maps.png": plots.plot_maps(
             wrong, shape, "Misclassified test movements per position (noise-free)", unit="%"),
