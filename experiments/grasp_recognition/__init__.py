@@ -1,6 +1,7 @@
 """Grasp recognition from one image (GRASP: Kjellström, Romero & Kragic, IROS 2008, §III-B, §V, §VII).
 
-    python -m experiments.grasp_recognition --preset quick|paper --out DIR
+    python -m experiments.grasp_recognition --preset quick|paper|best --out DIR
+    python -m experiments.grasp_recognition.ablation --split validation|test --out DIR
 
 Database: the MuJoCo human hand (`sim.human_hand`, DEFAULT_SHAPE) in the six reference grasps
 (`sim.human_grasps`) holding black objects, rendered from an azimuth x elevation grid over the upper
@@ -14,8 +15,15 @@ X' (24, without the most neutral snapshots), X'' (12 completed grasps) and a lar
 test frame goes through the `hog_jax` skin segmentation (skin model fitted on hands of other skin
 tones and other clutter); a frame where no skin is found counts as an error.
 
+Presets: `paper` is the paper's method as it is; `best` (issue 20, chosen on a validation split of its
+own seed and hand, `ablation`) adds a domain-randomised database (`experiments.data.grasp_database`), a
+whitened-LDA metric, a skin model adapted to each frame and multi-probe LSH tuned on query-like
+validation images. Both run the ladder (`ladder`): the test sets re-rendered with one more of their
+differences from the database per rung, from the database hand on black to the full test.
+
 Outputs: metrics.json, report.md, confusion.png (Fig. 7), orientation.png (Fig. 8), neighbours.png
-(Fig. 5), sweeps.png (accuracy against k, database size, B x L), contact_sheet.png.
+(Fig. 5), sweeps.png (accuracy against k, database size, B x L; paper preset), contact_sheet.png,
+ladder.png.
 """
 from experiments.grasp_recognition.config import PAPER, PRESETS, Config, parse_grid
 from experiments.grasp_recognition.demo import demo_stage

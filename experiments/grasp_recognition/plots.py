@@ -136,9 +136,11 @@ def plot_ladder(m: dict):
     a2.plot(r, m["ladder_orientation_geodesic_error_deg_large_correct"], "o-", label="large, correctly classified")
     a2.set_ylabel("geodesic orientation error (deg)")
     for ax in (a1, a2):
-        ax.set_xticks(r, [f"{i}. {n}" for i, n in zip(r, names)], rotation=25, ha="right", fontsize=7)
+        ax.set_xticks(r, [str(i) for i in r])
+        ax.set_xlabel("rung")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
+    fig.text(0.01, 0.01, "   ".join(f"{i}. {n}" for i, n in zip(r, names)), fontsize=6.5, wrap=True)
     fig.suptitle("Where the accuracy goes: one more difference from the database per rung")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     return fig
