@@ -41,7 +41,7 @@ class Config:
     metric_components: int = 0       # 0: all D (whitening only)
     lsh_tuning: str = "database"     # database: held-out database-like views; validation: query-like images
     lsh_probes: int = 0              # multi-probe: buckets read per table besides the query's
-    classifier: str = "knn"          # knn (eq. 3) | mlp (on HOG) | cnn (on the crops); orientation: eq. 4
+    classifier: str = "knn"          # knn (eq. 3) | mlp (a perceptron on HOG); orientation: eq. 4
     classifier_hidden: int = 512
     classifier_epochs: int = 30
     skin_adaptation: str = "none"    # none | background | both: the skin model adapted to each frame
@@ -61,7 +61,7 @@ class Config:
                                      ("metric", self.metric, ("none", "lda")),
                                      ("lsh_tuning", self.lsh_tuning, ("database", "validation")),
                                      ("skin_adaptation", self.skin_adaptation, ("none", "background", "both")),
-                                     ("classifier", self.classifier, ("knn", "mlp", "cnn"))):
+                                     ("classifier", self.classifier, ("knn", "mlp"))):
             if value not in choices:
                 raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
         if not 0.0 <= self.metric_shrinkage <= 1.0:
@@ -81,8 +81,8 @@ PRESETS = {
     "paper": {},
     # chosen on the validation split (`python -m experiments.grasp_recognition.ablation --split validation`):
     # the domain-randomised database (10x), the whitened-LDA metric, the frame-adapted background model,
-    # eq. 3's kNN; LSH with four probes per table tuned on query-like validation images (the only probe count
-    # of 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries)
+    # eq. 3's kNN; LSH with four probes per table tuned on query-like validation images (the fewest probes of
+    # 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries: `lsh_probes`)
     "best": {"n_random_views": 8100, "metric": "lda", "skin_adaptation": "background", "lsh_tuning": "validation",
              "lsh_probes": 4, "sweeps": False},
 }

@@ -9,7 +9,7 @@ import numpy as np
 
 import hog_jax
 from experiments.config import progress
-from experiments.grasp_recognition.classifier import classify, crop_inputs, fit_classifier
+from experiments.grasp_recognition.classifier import classify, fit_classifier
 from experiments.grasp_recognition.config import Config
 from experiments.grasp_recognition.pieces import hog_features, knn_predict
 from sim.grasp_objects import GRASP_CLASSES
@@ -61,10 +61,9 @@ def build_recogniser(cfg: Config, key, db, tune_images: tuple[np.ndarray, np.nda
     metric = (hog_jax.fit_metric(x, db.labels, shrinkage=cfg.metric_shrinkage, n_components=cfg.metric_components or None)
               if cfg.metric == "lda" else None)
     net = None
-    if cfg.classifier != "knn":
-        inputs = x if cfg.classifier == "mlp" else crop_inputs(db.images, db.masks)
-        net = fit_classifier(cfg.classifier, inputs, db.labels, len(GRASP_CLASSES), cfg.seed, cfg.classifier_hidden,
-                             cfg.classifier_epochs, progress=lambda it, total: progress(it, desc="train", total=total))
+    if cfg.classifier == "mlp":
+        net = fit_classifier(x, db.labels, len(GRASP_CLASSES), cfg.seed, cfg.classifier_hidden, cfg.classifier_epochs,
+                             progress=lambda it, total: progress(it, desc="train", total=total))
     x = transformed(metric, x)
     model = hog_jax.fit(x, db.labels, db.euler, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
     if tune_images is None:
@@ -90,9 +89,8 @@ def net_labels(rec: Recogniser, images, masks, found) -> np.ndarray | None:
         return None
     labels = np.full(len(images), -1, np.int32)
     if found.any():
-        inputs = (hog_features(images[found], masks[found], np.ones(int(found.sum()), bool), rec.hog)
-                  if rec.net.kind == "mlp" else crop_inputs(images[found], masks[found]))
-        labels[found] = classify(rec.net, inputs)
+        labels[found] = classify(rec.net, hog_features(images[found], masks[found], np.ones(int(found.sum()), bool),
+                                                       rec.hog))
     return labels
 
 
