@@ -1,0 +1,3 @@
+from experiments.imitation.stages import main
+
+main()

@@ -1,0 +1,77 @@
+"""Config and presets of the imitation loop (issue 21, "The loop")."""
+from __future__ import annotations
+
+import dataclasses
+
+from experiments.data import video
+from lfd_common import check_int, check_real
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """Demonstrations (rendered), the video front end, the online PHMMs, the grasp recogniser and the
+    robot. Settings marked "validation" are chosen on demonstrations of their own seed
+    (`seed + VALIDATION_SEED`), never on the evaluated ones."""
+
+    seed: int = 0
+    video_preset: str = "paper"          # experiments.data.video preset (resolution, frame rate, timing)
+    n_persons: int = 4                   # persons of the video settings; the last n_skin_persons train the skin models
+    n_skin_persons: int = 1
+    n_demos: int = 50                    # evaluated demonstrations
+    n_validation: int = 6                # validation demonstrations (own seed): feature offset, noise, threshold
+    pad_frames: int = 25                 # recordings padded to a multiple of this (one compilation per length)
+    handover_xy: tuple[float, ...] = (-0.1, -0.22)   # where a fetched object is brought (world x, y; in front of the person)
+    # PHMMs (Humanoids 2008 §III) trained on the demonstrations' kinematics, 3 x 3 grid over the objects' area
+    n_states: int = 6
+    train_repetitions: int = 4           # movements per grid corner and class
+    phmm_iter: int = 15
+    noise_sigmas_m: tuple[float, ...] = (0.04, 0.08, 0.12)   # validation: observation noise added to the PHMMs
+    online_window: int = 3               # BMVC §5.4: detector look-ahead = report latency, frames
+    online_thresholds_m: tuple[float, ...] = (0.06, 0.10)    # validation: displacement over the window that starts a movement
+    median_frames: int = 3               # spike filter on the tracked positions (odd, 1: none)
+    # grasp recognition (GRASP §III): the grasp study's preset, exact kNN over its database
+    grasp_preset: str = "quick"
+    # robot (sim.task_controller)
+    robot: bool = True
+    robot_hand: str = "barrett"
+    place_tolerance_m: float = 0.05      # a task succeeds with the right object within this of the place, upright
+
+    def __post_init__(self):
+        if self.video_preset not in video.PRESETS:
+            raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
+        for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_validation", 1),
+                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1),
+                          ("online_window", 1), ("median_frames", 1)):
+            check_int(getattr(self, name), name, min_value=low)
+        if self.n_skin_persons >= self.n_persons:
+            raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
+        if self.median_frames % 2 == 0:
+            raise ValueError(f"median_frames: expected an odd number, got {self.median_frames}")
+        for name in ("noise_sigmas_m", "online_thresholds_m"):
+            values = getattr(self, name)
+            if not isinstance(values, tuple) or not values:
+                raise ValueError(f"{name}: expected a non-empty tuple, got {values!r}")
+            for v in values:
+                check_real(v, name, min_value=0.0, exclusive_min=name == "online_thresholds_m")
+        if not isinstance(self.handover_xy, tuple) or len(self.handover_xy) != 2:
+            raise ValueError(f"handover_xy: expected (x, y), got {self.handover_xy!r}")
+        check_real(self.place_tolerance_m, "place_tolerance_m", min_value=0.0, exclusive_min=True)
+        if not isinstance(self.robot, bool):
+            raise ValueError(f"robot: expected a bool, got {self.robot!r}")
+
+    def video_settings(self) -> video.VideoSettings:
+        return video.preset(self.video_preset, seed=self.seed, n_persons=self.n_persons)
+
+    @property
+    def demonstrators(self) -> int:
+        """Persons 0 .. demonstrators - 1 demonstrate; the others' clips train the skin models."""
+        return self.n_persons - self.n_skin_persons
+
+
+VALIDATION_SEED = 1000
+
+PRESETS = {
+    "quick": {"video_preset": "quick", "n_demos": 4, "n_validation": 2, "train_repetitions": 3, "phmm_iter": 10,
+              "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,)},
+    "paper": {},
+}

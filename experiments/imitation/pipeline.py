@@ -1,0 +1,255 @@
+"""One demonstration through the loop (issue 21, "The loop"): video -> the video front end (level sets
+and α-β tracks of both views, the triangulated hand relative to the face; LEVELSET TR §3, LfD 2009
+§III-C) -> the online PHMM recogniser (BMVC 2008 §5.4: streaming forward state, movement start and end,
+class and parameter = the target on the table; Humanoids 2008 §III) -> the grasp moment and the
+put-down from the hand's speed along the recognised movement -> the grasp class and hand orientation
+from the hand image at the grasp moment (GRASP §III, eqs. 3-4) -> the robot grasp (MAP §III).
+
+The PHMMs are trained on the kinematics of demonstrations of their own seed (no rendering): the hand
+centre minus the face centre in world axes, from the frame the hand rises above the table top (where
+the cameras first see it) to the frame it drops below it again; one PHMM "point" (pointing at an
+object) and one "transfer" (reaching to the object, carrying it, returning), each over a 3 x 3 grid of
+object positions. The tracked stream differs from the kinematics by a constant (the face blob
+includes the neck; the hand blob's centroid is not the hand's centre of volume): that offset, the
+PHMMs' observation noise and the detector's threshold are chosen on validation demonstrations.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import NamedTuple
+
+import cv2
+import jax
+import numpy as np
+
+import hog_jax
+import phmm_jax as P
+from experiments.data import video
+from experiments.imitation.config import Config
+from experiments.imitation.demonstrations import (AREA_X, AREA_Y, KINDS, MIN_GAP_M, N_OBJECTS, Demo, _cache_path,
+                                                  _free, demo_track, table_z)
+from experiments.lfd_demonstration.features import held
+from lfd_common import cache_dir, write_npz
+
+_LO, _HI = np.array([AREA_X[0], AREA_Y[0]]), np.array([AREA_X[1], AREA_Y[1]])
+GRID = (3, 3)
+
+
+def camera_rotation(P_left: np.ndarray) -> np.ndarray:
+    """(3, 3) world -> left camera rotation (x right, y down, z forward) of a camera matrix (3, 4)."""
+    P_left = np.asarray(P_left, np.float64)
+    if P_left.shape != (3, 4) or not np.isfinite(P_left).all():
+        raise ValueError(f"P_left: expected a finite (3, 4) camera matrix, got {P_left.shape}")
+    return cv2.decomposeProjectionMatrix(P_left)[1]
+
+
+def phi_to_xy(phi: np.ndarray) -> np.ndarray:
+    """PHMM parameters φ (..., 2) -> table positions (..., 2), world m (the grid spans the objects' area)."""
+    return _LO + np.asarray(phi) * (_HI - _LO)
+
+
+# ------------------------------------------------------------------------------------------ tracking
+class Tracked(NamedTuple):
+    """The front end's output for one recording: diff (T, 3) hand - face in world axes (m; 0 where not
+    found), found (T,) tracked in both views, hand_rc (T, 2) the tracked hand in the left view (row,
+    column), start (the first segmented frame)."""
+
+    diff: np.ndarray
+    found: np.ndarray
+    hand_rc: np.ndarray
+    start: int
+
+
+def _track_path(cfg: Config, settings, demo: Demo):
+    from experiments.lfd_demonstration.clips import _source_digest
+
+    blob = json.dumps({"video": _cache_path(settings, demo).name, "pad": cfg.pad_frames, "seed": cfg.seed,
+                       "skin": [cfg.n_persons, cfg.n_skin_persons], "code": _source_digest()}, sort_keys=True)
+    return cache_dir("imitation_tracks") / f"track_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
+
+
+def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> Tracked:
+    """The recording through the video front end of `experiments.lfd_demonstration` (cached per
+    demonstration and front-end code)."""
+    from experiments.lfd_demonstration.stages import front_end, hand_tracks
+
+    path = _track_path(cfg, settings, demo)
+    if path.exists():
+        with np.load(path) as z:
+            return Tracked(z["diff"], z["found"], z["hand_rc"], int(z["start"]))
+    _, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + demo.seed % 100_000),
+                                    cfg.pad_frames)
+    hand_l, _, _ = hand_tracks(positions, start)
+    found = np.asarray(positions.found_3d, bool).copy()
+    found[:start] = False
+    rot = camera_rotation(rec.P_left)
+    diff = np.where(found[:, None], np.asarray(positions.xyz, np.float64) @ rot, 0.0)  # R^T x per row
+    out = Tracked(diff.astype(np.float32), found, hand_l.astype(np.float32), int(start))
+    write_npz(path, **out._asdict())
+    return out
+
+
+def median_filter(x: np.ndarray, width: int) -> np.ndarray:
+    """Running median over `width` (odd) frames of x (T, D), edges repeated (spikes of the tracker)."""
+    if width == 1:
+        return x
+    h = width // 2
+    padded = np.concatenate([np.repeat(x[:1], h, 0), x, np.repeat(x[-1:], h, 0)])
+    return np.median(np.lib.stride_tricks.sliding_window_view(padded, width, axis=0), axis=-1)
+
+
+def stream_of(t: Tracked, offset: np.ndarray, median_frames: int) -> np.ndarray:
+    """The recogniser's input (T, 3): the tracked hand - face, held where lost, spike-filtered, minus
+    the tracker's offset from the kinematic features."""
+    return median_filter(held(t.diff.astype(np.float64), t.found), median_frames) - offset
+
+
+# ------------------------------------------------------------------------------------------ PHMMs
+def kinematic_features(who, tr) -> tuple[np.ndarray, np.ndarray]:
+    """(hand centre - face centre (T, 3) world, held where the hand is below the table top; visible (T,))
+    of a `kinematics.Track` performed by `who`."""
+    pose = tr.pose
+    local = np.array([0.5 * who.look.hand.palm_length, 0.0, -0.01])
+    hand = pose.r_wrist + pose.r_hand_rot @ local
+    visible = hand[:, 2] > table_z()
+    return held(hand - pose.trunk_pos, visible), visible
+
+
+class _Actors:
+    def __init__(self, settings):
+        self.settings, self.cache = settings, {}
+
+    def __call__(self, demo: Demo):
+        if demo.person not in self.cache:
+            self.cache[demo.person] = video.actor(self.settings, demo.person)
+        who = self.cache[demo.person]
+        rest = who.rest_pos.copy()
+        rest[:, :2] = demo.objects_xy
+        return who._replace(rest_pos=rest)
+
+
+def demo_features(actors: _Actors, demo: Demo, settings) -> np.ndarray:
+    """The kinematic features (L, 3) of the demonstration's visible frames (the movement as tracked)."""
+    x, visible = kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
+    idx = np.flatnonzero(visible)
+    return x[idx[0]: idx[-1] + 1]
+
+
+def training_demos(cfg: Config, kind: str, seed: int) -> list[list[Demo]]:
+    """Per grid corner (C order) `train_repetitions` demonstrations of `kind` with the target object
+    at the corner's position, other objects, persons, grasps and places random."""
+    rng = np.random.default_rng([seed, 21, 9, KINDS.index(kind)])
+    groups = []
+    for xy in phi_to_xy(P.grid_points(GRID)):
+        group = []
+        for _ in range(cfg.train_repetitions):
+            target = int(rng.integers(N_OBJECTS))
+            places = np.zeros((N_OBJECTS, 2))
+            places[target] = xy
+            taken = xy[None]
+            for k in range(N_OBJECTS):
+                if k != target:
+                    places[k] = _free(rng, taken, MIN_GAP_M)
+                    taken = np.vstack([taken, places[k]])
+            grasp = int(rng.choice((1, 2, 4, 9, 10, 12))) if kind == "transfer" else -1
+            place = _free(rng, taken, MIN_GAP_M) if kind == "transfer" else np.asarray(cfg.handover_xy, float)
+            group.append(Demo(kind, int(rng.integers(cfg.demonstrators)), int(rng.integers(1 << 30)), places, target,
+                              grasp, place))
+        groups.append(group)
+    return groups
+
+
+def train_phmms(cfg: Config, settings, seed: int) -> list[P.PHMM]:
+    """One PHMM per kind (`KINDS` order) over the 3 x 3 grid, on kinematic features (module docstring)."""
+    actors = _Actors(settings)
+    data = {kind: [[demo_features(actors, d, settings) for d in group] for group in training_demos(cfg, kind, seed)]
+            for kind in KINDS}
+    longest = max(len(x) for groups in data.values() for g in groups for x in g)
+    shortest = min(len(x) for groups in data.values() for g in groups for x in g)
+    n_states = min(cfg.n_states, shortest)
+    config = P.HMMConfig(n_states=n_states, min_duration=1, max_duration=int(math.ceil(1.6 * longest / n_states)))
+    options = P.FitOptions(max_iter=cfg.phmm_iter)
+    return [P.fit_phmm(data[kind], GRID, config, options=options) for kind in KINDS]
+
+
+def recognizer(phmms, sigma_m: float, threshold_m: float, window: int) -> P.OnlineRecognizer:
+    """The online recogniser (BMVC §5.4) of the PHMMs with observation noise sigma_m (m)."""
+    return P.online_recognizer([P.with_observation_noise(p, sigma_m ** 2) for p in phmms], threshold_m, window=window)
+
+
+# ------------------------------------------------------------------------------------------ per demo
+class Recognised(NamedTuple):
+    """What the loop recognised in one demonstration. kind ("point" / "transfer", None: no movement),
+    target_xy (2,) the PHMM's target (NaN if none), target (the nearest object, -1 if none), start / end
+    of the movement (frames, -1), grasp_frame and putdown_frame (-1 for pointing), place_xy (2,) (the
+    hand-over spot for pointing), grasp (a `GRASP_CLASSES` class, -1: none), grasp_quat (4,) (the hand's
+    orientation relative to the camera, NaN if none)."""
+
+    kind: str | None
+    target_xy: np.ndarray
+    target: int
+    start: int
+    end: int
+    grasp_frame: int
+    putdown_frame: int
+    place_xy: np.ndarray
+    grasp: int
+    grasp_quat: np.ndarray
+
+
+def movement(rec_online, stream: np.ndarray):
+    """The demonstrated movement: the longest event that a class explains (None if there is none)."""
+    events = P.run_online(rec_online, stream)
+    ok = np.flatnonzero(events.found)
+    if not ok.size:
+        return None
+    i = ok[np.argmax(events.end[ok] - events.start[ok])]
+    return (KINDS[int(events.label[i])], phi_to_xy(np.asarray(events.phi[i], float)), int(events.start[i]),
+            int(events.end[i]))
+
+
+def grasp_and_putdown(stream: np.ndarray, start: int, end: int) -> tuple[int, int]:
+    """The grasp moment and the put-down of a transfer: the slowest frames of the hand over the first
+    half of the movement (the hand at the object) and over the rest before the return."""
+    speed = np.r_[np.inf, np.linalg.norm(np.diff(stream, axis=0), axis=1)]
+    length = end - start + 1
+
+    def slowest(a, b):
+        a, b = int(start + a * length), max(int(start + b * length), int(start + a * length) + 1)
+        return a + int(np.argmin(speed[a:b]))
+
+    g = slowest(0.15, 0.55)
+    p = slowest((g - start) / length + 0.15, 0.9)
+    return g, p
+
+
+def hand_crop(frame: np.ndarray, hand_rc: np.ndarray, skin, out_size: int):
+    """The skin-segmented hand crop (images (1, S, S), masks, found) at the tracked hand (GRASP §III-A)."""
+    seg = hog_jax.segment(skin, frame[None], seed_points=np.asarray(hand_rc, np.float32)[None], out_size=out_size)
+    return np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)
+
+
+def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, objects_xy: np.ndarray,
+                   handover_xy, grasp=None) -> Recognised:
+    """Action, target, grasp moment, put-down and place of one tracked demonstration; `grasp`
+    (frame index -> (class, quat)) recognises the hand at the grasp moment (None: not recognised)."""
+    objects_xy = np.asarray(objects_xy, float)
+    if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
+        raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
+    nan2 = np.full(2, np.nan)
+    if not tracked.found.any():
+        return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
+    stream = stream_of(tracked, offset, median_frames)
+    found = movement(rec_online, stream)
+    if found is None:
+        return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
+    kind, xy, s, e = found
+    target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
+    if kind == "point":
+        return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan))
+    g, p = grasp_and_putdown(stream, s, e)
+    place = objects_xy[target] + (stream[p, :2] - stream[g, :2])
+    cls, quat = grasp(g) if grasp is not None else (-1, np.full(4, np.nan))
+    return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float))

@@ -1,0 +1,108 @@
+"""The imitation loop's report.md and its side-by-side video (the person | the robot)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from experiments.config import markdown_table
+from experiments.data import video
+from experiments.imitation.demonstrations import AREA_X, AREA_Y, Demo
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        return "nan" if not np.isfinite(v) else f"{v:.3g}"
+    return str(v)
+
+
+def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict) -> str:
+    """report.md: the loop's figures beside the papers' (where they have one), the failures by stage,
+    the validation choices and every demonstration."""
+    lines = [
+        "# Imitation: from a demonstration video to the robot (issue 21, \"The loop\")", "",
+        f"{metrics['n_demonstrations']} demonstrations ({metrics['n_point']} pointing, {metrics['n_transfer']} "
+        f"pick-and-place) at {settings.width} x {settings.height}, {settings.fps:g} fps; persons 0-{cfg.demonstrators - 1} "
+        f"demonstrate, the skin models come from the others' clips; run time {metrics['runtime_s']:.0f} s.", "",
+        markdown_table(["measure", "ours", "papers"], [
+            ["action accuracy (point vs pick)", _fmt(metrics["action_accuracy"]), "PHMM 93-94 % (BMVC Table, mocap)"],
+            ["target = nearest object", _fmt(metrics["target_accuracy"]), "—"],
+            ["target error (median, cm)", _fmt(metrics["target_error_cm"]), "PHMM ≈ 2 cm (mocap)"],
+            ["grasp class accuracy", _fmt(metrics["grasp_accuracy"]), "GRASP 61-75 % (single images)"],
+            ["place error (median, cm)", _fmt(metrics["place_error_cm"]), "—"],
+            ["pick-up / put-down error (mean |frames|)",
+             f"{_fmt(metrics['pickup_error_frames_mean_abs'])} / {_fmt(metrics['putdown_error_frames_mean_abs'])}",
+             "LfD 1.2 / 3.4 frames (25 fps)"],
+            ["recognition all right", _fmt(metrics["recognition_success_rate"]), "—"],
+            ["robot task success", _fmt(metrics["task_success_rate"]), "—"],
+        ]), "",
+        "## Failures by the stage that caused them", "",
+        "The first stage in the loop's order (tracking, action, target, grasp, place, then the robot's stages) "
+        "that went wrong in each failed demonstration.", "",
+        markdown_table(["stage", "demonstrations"], sorted(metrics["failures_by_stage"].items())) or "none", "",
+        "## Settings chosen on validation demonstrations", "",
+        f"{metrics['validation_demonstrations']} demonstrations of seed {cfg.seed} + 1000: the tracker's offset from "
+        f"the kinematic features {np.round(metrics['validation_offset_m'], 3).tolist()} m, observation noise "
+        f"{metrics['chosen_sigma_m']:g} m, movement threshold {metrics['chosen_threshold_m']:g} m "
+        f"(scores: right actions + right targets {metrics['validation_scores']}).", "",
+        "## Stage times (s per demonstration)", "",
+        markdown_table(["stage", "s"], [[k, f"{v:.2f}"] for k, v in metrics["stage_time_s"].items()]), "",
+        "## Demonstrations", "",
+        markdown_table(["#", "person", "kind", "recognised", "object", "recognised", "error cm", "grasp", "recognised",
+                        "place error cm", "failed"],
+                       [[i, d.person, d.kind, r["kind_recognised"], d.target, r["target_recognised"],
+                         _fmt(r["target_error_cm"]), d.grasp, r["grasp_recognised"], _fmt(r["place_error_cm"]),
+                         r["failed_stage"]] for i, (d, r) in enumerate(zip(demos, results))]),
+    ]
+    if not metrics.get("robot_ran"):
+        lines += ["", "The robot step did not run: `sim.task_controller` (the robot's part of issue 21) is not in "
+                  "the tree or the run disabled it; `task_success_rate` is null."]
+    return "\n".join(lines)
+
+
+def _table_view(demo: Demo, result: dict, size: tuple[int, int]) -> np.ndarray:
+    """A top view of the table (H, W, 3): the objects (grey), the demonstrated object (green ring), the
+    recognised target (red cross), the true and recognised places (green, red squares)."""
+    h, w = size
+    img = np.full((h, w, 3), (150, 110, 70), np.uint8)
+    x0, x1, y0, y1 = AREA_X[0] - 0.1, AREA_X[1] + 0.1, AREA_Y[0] - 0.1, AREA_Y[1] + 0.1
+
+    def px(xy):
+        xy = np.asarray(xy, float)
+        return (int(round((x1 - xy[0]) / (x1 - x0) * (w - 1))), int(round((xy[1] - y0) / (y1 - y0) * (h - 1))))
+
+    for k, xy in enumerate(demo.objects_xy):
+        cv2.circle(img, px(xy), max(2, w // 40), (200, 200, 200), -1)
+    cv2.circle(img, px(demo.objects_xy[demo.target]), max(4, w // 25), (0, 200, 0), 1)
+    r = result["recognised"]
+    if np.isfinite(r.target_xy).all():
+        cv2.drawMarker(img, px(r.target_xy), (230, 0, 0), cv2.MARKER_CROSS, max(6, w // 20), 1)
+    if demo.kind == "transfer":
+        cv2.rectangle(img, np.subtract(px(demo.place_xy), 3), np.add(px(demo.place_xy), 3), (0, 200, 0), 1)
+    if np.isfinite(r.place_xy).all():
+        cv2.rectangle(img, np.subtract(px(r.place_xy), 2), np.add(px(r.place_xy), 2), (230, 0, 0), -1)
+    return img
+
+
+def side_by_side(path, demo: Demo, result: dict, settings) -> Path:
+    """The person (left view, the tracked hand marked) beside the robot's frames (the controller's
+    render), or, without a robot run, beside a top view of what the loop recognised."""
+    rec = result["rec"]
+    tracked = result["tracked"]
+    person = rec.left.copy()
+    for t in np.flatnonzero(tracked.found):
+        r, c = np.rint(tracked.hand_rc[t]).astype(int)
+        cv2.circle(person[t], (int(c), int(r)), 3, (255, 255, 0), 1)
+    h, w = person.shape[1:3]
+    robot = result.get("robot")
+    frames = getattr(robot, "frames", None) if robot is not None else None
+    if frames is not None and len(frames):
+        frames = np.asarray(frames, np.uint8)
+        idx = np.linspace(0, len(frames) - 1, len(person)).round().astype(int)
+        right = np.stack([cv2.resize(frames[i], (int(round(frames.shape[2] * h / frames.shape[1])), h)) for i in idx])
+    else:
+        right = np.repeat(_table_view(demo, result, (h, w))[None], len(person), 0)
+    return video.write_video(np.concatenate([person, right], axis=2), Path(path), fps=settings.fps)

@@ -1,0 +1,308 @@
+"""The stages of the imitation loop and its `main` (issue 21, "The loop"): skin models, the grasp
+recogniser, the PHMMs, the settings chosen on validation demonstrations, every evaluated demonstration
+through the loop (`run_demo`), the metrics, the report and a side-by-side video."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import inspect
+import json
+import time
+import types
+from typing import Any, NamedTuple
+
+import jax
+import numpy as np
+
+import phmm_jax as P
+import sim
+from experiments.config import parse_config, progress
+from experiments.data import video
+from experiments.imitation import pipeline as pl
+from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
+from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
+from lfd_common import cache_dir, enable_compilation_cache
+from sim.grasp_objects import GRASP_CLASSES
+
+STAGES = ("tracking", "action", "target", "grasp", "place")  # recognition stages, in the loop's order
+_TRAIN_SEED = 2000
+
+
+class Models(NamedTuple):
+    """What the loop runs with: the skin models (chroma for the hand crop, RGB for the front end), the
+    grasp recogniser, the PHMMs (`KINDS` order) and the settings chosen on validation demonstrations."""
+
+    chroma_skin: Any
+    rgb_skin: Any
+    grasp: Any
+    phmms: list
+    offset: np.ndarray
+    sigma_m: float
+    threshold_m: float
+    online: Any
+
+
+def skin_models(cfg: Config, settings):
+    """The video study's skin models from the clips of the last `n_skin_persons` (no demonstrator)."""
+    from experiments.video_segmentation.stages import skin_stage
+
+    chroma, rgb, _ = skin_stage(types.SimpleNamespace(seed=cfg.seed, n_skin_persons=cfg.n_skin_persons), settings,
+                                range(cfg.demonstrators, cfg.n_persons))
+    return chroma, rgb
+
+
+def grasp_recogniser(cfg: Config):
+    """The grasp study's recogniser of `cfg.grasp_preset` (its rendered database; exact kNN, eqs. 3-4)."""
+    from experiments.config import resolve_config
+    from experiments.grasp_recognition.config import PRESETS as GP, Config as GConfig
+    from experiments.grasp_recognition.recogniser import build_recogniser
+    from experiments.grasp_recognition.stages import database
+
+    gcfg = resolve_config(GConfig, GP, cfg.grasp_preset, {"seed": cfg.seed})
+    return gcfg, build_recogniser(gcfg, jax.random.key(cfg.seed), database(gcfg), None)
+
+
+def _phmm_path(cfg: Config, settings):
+    fields = {k: getattr(cfg, k) for k in ("seed", "n_persons", "n_skin_persons", "handover_xy", "n_states",
+                                           "train_repetitions", "phmm_iter")}
+    code = inspect.getsource(pl) + inspect.getsource(demo_track) + inspect.getsource(video.render)
+    blob = json.dumps({"cfg": fields, "settings": dataclasses.asdict(settings),
+                       "code": hashlib.sha1(code.encode()).hexdigest()}, sort_keys=True, default=float)
+    return cache_dir("imitation_phmm") / f"phmms_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
+
+
+def phmm_models(cfg: Config, settings) -> list:
+    """The PHMMs trained on kinematics of their own seed (`pipeline.train_phmms`), cached."""
+    path = _phmm_path(cfg, settings)
+    files = [path.with_name(f"{path.name}_{k}.npz") for k in range(2)]
+    if all(f.exists() for f in files):
+        return [P.load(f) for f in files]
+    phmms = pl.train_phmms(cfg, settings, cfg.seed + _TRAIN_SEED)
+    for f, m in zip(files, phmms):
+        P.save(f, m)
+    return phmms
+
+
+def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording, tracked: pl.Tracked):
+    """frame -> (grasp class, quaternion) of the hand crop at that frame (-1, NaN if no hand is found)."""
+    from experiments.grasp_recognition.recogniser import features, recognise
+
+    gcfg, recogniser = models_grasp
+
+    def at(frame: int):
+        images, masks, found = pl.hand_crop(rec.left[frame], tracked.hand_rc[frame], chroma_skin, gcfg.crop_size)
+        if not found.any():
+            return -1, np.full(4, np.nan)
+        out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
+        label = int(out.labels[0])
+        return (GRASP_CLASSES[label] if label >= 0 else -1), out.quat[0]
+
+    return at
+
+
+def _tracked_demo(cfg, settings, demo, rgb_skin):
+    rec = render_demo(settings, demo, progress=None)
+    return rec, pl.track(cfg, settings, demo, rec, rgb_skin)
+
+
+def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray, float, float, dict]:
+    """The tracker's offset (median of tracked - kinematic features), the PHMMs' observation noise and
+    the detector's threshold, chosen on `n_validation` demonstrations of their own seed by the number of
+    right actions plus right targets (ties: the first in the config's order)."""
+    demos = draw_demos(cfg.n_validation, cfg.seed + VALIDATION_SEED, cfg.demonstrators, cfg.handover_xy)
+    actors = pl._Actors(settings)
+    tracked, gaps = [], []
+    for demo in progress(demos, desc="validation demonstrations"):
+        rec, t = _tracked_demo(cfg, settings, demo, rgb_skin)
+        x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
+        both = t.found & visible[: len(t.found)]
+        gaps.append(t.diff[both] - x[: len(t.found)][both])
+        tracked.append(t)
+    gaps = np.concatenate(gaps) if gaps else np.zeros((0, 3))
+    offset = np.median(gaps, axis=0) if len(gaps) else np.zeros(3)
+    scores = {}
+    for sigma in cfg.noise_sigmas_m:
+        for thr in cfg.online_thresholds_m:
+            online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+            score = 0
+            for demo, t in zip(demos, tracked):
+                r = pl.recognise_demo(online, t, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy)
+                score += (r.kind == demo.kind) + (r.target == demo.target)
+            scores[(sigma, thr)] = score
+    sigma, thr = max(scores, key=lambda k: scores[k])  # the first maximum: dict order = config order
+    metrics = {"validation_demonstrations": len(demos), "validation_offset_m": [float(v) for v in offset],
+               "validation_scores": {f"sigma_{s:g}_threshold_{t:g}": v for (s, t), v in scores.items()},
+               "chosen_sigma_m": float(sigma), "chosen_threshold_m": float(thr)}
+    return offset, float(sigma), float(thr), metrics
+
+
+def prepare(cfg: Config, settings) -> tuple[Models, dict, dict]:
+    """Every model of the loop and the validation choices: (Models, metrics, stage times s)."""
+    times = {}
+    t0 = time.perf_counter()
+    chroma, rgb = skin_models(cfg, settings)
+    times["skin_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    grasp = grasp_recogniser(cfg)
+    times["grasp_database_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    phmms = phmm_models(cfg, settings)
+    times["phmm_training_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    offset, sigma, thr, metrics = validation_stage(cfg, settings, phmms, rgb)
+    times["validation_s"] = time.perf_counter() - t0
+    online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+    return Models(chroma, rgb, grasp, phmms, offset, sigma, thr, online), metrics, times
+
+
+# ------------------------------------------------------------------------------------------ robot
+def robot_module():
+    """`sim.task_controller` if it is there (another part of issue 21), else None."""
+    try:
+        import sim.task_controller as tc
+    except ImportError:
+        return None
+    return tc if hasattr(tc, "run_task") and hasattr(tc, "TaskSpec") else None
+
+
+def scene_objects(demo: Demo) -> tuple[int, ...]:
+    """The robot scene's objects (`sim.grasp_objects` classes) standing in for the video's binoculars,
+    cup and pitcher (the manipulator scene's defaults, `sim.manipulator.DEFAULT_OBJECTS`); in a transfer
+    the handled object is the object of the demonstrated grasp's class (the object that grasp is for)."""
+    from sim.manipulator import DEFAULT_OBJECTS
+
+    objects = list(DEFAULT_OBJECTS)
+    if demo.kind == "transfer":
+        objects[demo.target] = demo.grasp
+    return tuple(objects)
+
+
+def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, render: bool = False):
+    """The robot repeats what was recognised (`sim.task_controller.run_task`, MAP §III grasp strategy
+    through the mapping table): the recognised object among the scene's objects (`scene_objects`), the
+    recognised grasp (a pointing demonstration: the grasp class of the object's stand-in), the hand-over
+    spot or the recognised place; the orientation: the controller's canonical one (the recognised
+    orientation is relative to the camera and not turned into the world here). Returns the
+    `TaskResult`, or None without the controller."""
+    tc = robot_module()
+    if tc is None:
+        return None
+    objects = scene_objects(demo)
+    grasp = r.grasp if (r.kind == "transfer" and r.grasp in GRASP_CLASSES) else objects[r.target]
+    spec = tc.TaskSpec(objects=objects, object_xy=np.asarray(demo.objects_xy, float), target=int(r.target),
+                       grasp=int(grasp), place_xy=np.asarray(r.place_xy, float), hand_rot=None, tactile=True,
+                       hand=cfg.robot_hand)
+    return tc.run_task(spec, seed=int(demo.seed % 1000), render=render)
+
+
+# ------------------------------------------------------------------------------------------ per demo
+def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = True, render_robot: bool = False) -> dict:
+    """One demonstration through the loop: the recognised action, target, grasp and place beside the
+    truth, the stage that failed first (None: none), the robot's outcome and per-stage times (s)."""
+    times = {}
+    t0 = time.perf_counter()
+    rec = render_demo(settings, demo, progress=None)
+    times["render_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tracked = pl.track(cfg, settings, demo, rec, models.rgb_skin)
+    times["tracking_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked)
+    r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+                          grasp)
+    times["recognition_s"] = time.perf_counter() - t0
+    truth_xy = np.asarray(demo.objects_xy)[demo.target]
+    out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
+           "target_error_cm": float(np.linalg.norm(r.target_xy - truth_xy) * 100) if r.kind else float("nan"),
+           "grasp": demo.grasp, "grasp_recognised": r.grasp, "tracked_frames": int(tracked.found.sum()),
+           "place_error_cm": float("nan"), "pickup_error_frames": float("nan"), "putdown_error_frames": float("nan"),
+           "recognised": r, "rec": rec, "tracked": tracked}
+    if demo.kind == "transfer" and r.kind == "transfer":
+        out["place_error_cm"] = float(np.linalg.norm(r.place_xy - np.asarray(demo.place_xy)) * 100)
+        out["pickup_error_frames"] = float(r.grasp_frame - rec.pickup_frames[0])
+        out["putdown_error_frames"] = float(r.putdown_frame - rec.putdown_frames[0])
+    checks = {"tracking": out["tracked_frames"] >= 3, "action": r.kind == demo.kind,
+              "target": r.target == demo.target,
+              "grasp": demo.kind != "transfer" or r.grasp == demo.grasp,
+              "place": demo.kind != "transfer" or out["place_error_cm"] <= cfg.place_tolerance_m * 100}
+    failed = next((s for s in STAGES if not checks[s]), None)
+    out["robot"] = None
+    if robot and cfg.robot and r.kind is not None:
+        t0 = time.perf_counter()
+        res = robot_task(cfg, demo, r, render=render_robot)
+        times["robot_s"] = time.perf_counter() - t0
+        if res is not None:
+            out["robot"] = res
+            if failed is None and not res.success:
+                failed = f"robot_{res.failed_stage or 'outcome'}"
+    out["failed_stage"], out["times"] = failed, times
+    return out
+
+
+def summarise(results: list[dict], robot_ran: bool) -> dict:
+    """metrics over the demonstrations (module docstring of `experiments.imitation`)."""
+    n = len(results)
+    mean = lambda xs: float(np.mean(xs)) if len(xs) else float("nan")  # noqa: E731
+    transfers = [r for r in results if r["kind"] == "transfer"]
+    errs = [r["target_error_cm"] for r in results if np.isfinite(r["target_error_cm"])]
+    failures: dict[str, int] = {}
+    for r in results:
+        if r["failed_stage"] is not None:
+            failures[r["failed_stage"]] = failures.get(r["failed_stage"], 0) + 1
+    robot = [r["robot"] for r in results if r["robot"] is not None]
+    times = {}
+    for r in results:
+        for k, v in r["times"].items():
+            times[k] = times.get(k, 0.0) + v
+    place = [r["place_error_cm"] for r in transfers if np.isfinite(r["place_error_cm"])]
+    return {
+        "n_demonstrations": n, "n_point": n - len(transfers), "n_transfer": len(transfers),
+        "action_accuracy": mean([r["kind_recognised"] == r["kind"] for r in results]),
+        "target_accuracy": mean([r["target_recognised"] == r["target"] for r in results]),
+        "target_error_cm": float(np.median(errs)) if errs else float("nan"),
+        "target_error_cm_mean": mean(errs),
+        "grasp_accuracy": mean([r["grasp_recognised"] == r["grasp"] for r in transfers]),
+        "grasp_found_rate": mean([r["grasp_recognised"] != -1 for r in transfers if r["kind_recognised"] == "transfer"]),
+        "place_error_cm": float(np.median(place)) if place else float("nan"),
+        "pickup_error_frames_mean_abs": mean([abs(r["pickup_error_frames"]) for r in transfers
+                                              if np.isfinite(r["pickup_error_frames"])]),
+        "putdown_error_frames_mean_abs": mean([abs(r["putdown_error_frames"]) for r in transfers
+                                               if np.isfinite(r["putdown_error_frames"])]),
+        "recognition_success_rate": mean([r["failed_stage"] is None or r["failed_stage"].startswith("robot")
+                                          for r in results]),
+        "task_success_rate": mean([r["failed_stage"] is None for r in results]) if robot_ran else None,
+        "robot_ran": bool(robot) and robot_ran, "robot_success_rate": mean([bool(x.success) for x in robot]),
+        "failures_by_stage": failures,
+        "stage_time_s": {k: v / max(n, 1) for k, v in times.items()},
+    }
+
+
+def main(argv=None) -> dict:
+    from experiments.imitation.report import report, side_by_side
+
+    cfg, run = parse_config(Config, PRESETS, name="imitation", argv=argv)
+    sim.setup_rendering()
+    enable_compilation_cache()
+    start = time.perf_counter()
+    settings = cfg.video_settings()
+    models, val_metrics, prep_times = prepare(cfg, settings)
+    robot_ran = cfg.robot and robot_module() is not None
+    demos = draw_demos(cfg.n_demos, cfg.seed, cfg.demonstrators, cfg.handover_xy)
+    results = []
+    for i, demo in enumerate(progress(demos, desc="demonstrations")):
+        results.append(run_demo(cfg, settings, models, demo, render_robot=robot_ran and i == 0))
+        r = results[-1]
+        print(f"demo {i}: {demo.kind} object {demo.target} grasp {demo.grasp} -> {r['kind_recognised']} object "
+              f"{r['target_recognised']} grasp {r['grasp_recognised']} ({r['target_error_cm']:.1f} cm); "
+              f"failed: {r['failed_stage']}", flush=True)
+    runtime = time.perf_counter() - start
+    metrics = summarise(results, robot_ran)
+    metrics.update(val_metrics)
+    metrics["prepare_time_s"] = prep_times
+    metrics["runtime_s"] = runtime
+    metrics["robot_available"] = robot_module() is not None
+    path = side_by_side(run.file("side_by_side.mp4"), demos[0], results[0], settings)
+    metrics["video"] = path.name
+    run.write(metrics, report(cfg, settings, demos, results, metrics), flat=False)
+    print(f"wrote {run.path}/ in {runtime:.0f} s")
+    return metrics
