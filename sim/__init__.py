@@ -14,7 +14,9 @@ with joint-space position servos, gravity compensation and a few free objects; `
 compiles it with its `ManipulatorLayout` (qpos/ctrl indices), `manipulator_qpos` sets a pose.
 `arm_chain(model)` reads the arm's kinematic chain (`ArmChain`) to the palm site;
 `forward_kinematics(chain, q)` and the batched damped-least-squares `solve_ik(chain, target_pos,
-target_rot, q0)` -> `IKResult(q, pos_error, rot_error, reachable)` run in JAX.
+target_rot, q0)` -> `IKResult(q, pos_error, rot_error, reachable)` run in JAX. `run_task(TaskSpec(...))`
+-> `TaskResult` picks an object up with the MAP §III grasp strategy, carries it to a place and puts it
+down (`sim.task_controller`).
 """
 from sim.manipulator import ManipulatorLayout, manipulator_model, manipulator_qpos, manipulator_scene_xml
 from sim.manipulator_ik import ArmChain, IKResult, arm_chain, forward_kinematics, solve_ik
@@ -23,8 +25,10 @@ from sim.person_scene import PART_LABELS, PART_NAMES, PersonScene, ScenePose, St
 from sim.render import render_frame, setup_rendering
 from sim.rollout import batched_rollout, worlds_from_qpos
 from sim.scenes import tabletop_drop_scene
+from sim.task_controller import TaskResult, TaskSpec, run_task
 
 __all__ = ["ArmChain", "IKResult", "ManipulatorLayout", "arm_chain", "forward_kinematics", "manipulator_model",
            "manipulator_qpos", "manipulator_scene_xml", "solve_ik",
            "PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene", "ScenePose", "StereoRig", "TableSpec",
-           "person_scene_xml", "batched_rollout", "render_frame", "setup_rendering", "tabletop_drop_scene", "worlds_from_qpos"]
+           "person_scene_xml", "batched_rollout", "render_frame", "setup_rendering", "tabletop_drop_scene", "worlds_from_qpos",
+           "TaskResult", "TaskSpec", "run_task"]

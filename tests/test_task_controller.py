@@ -1,0 +1,84 @@
+"""The robot task controller (`sim.task_controller`, issue 21): one pick-and-place that succeeds (Barrett
+hand, Large Diameter grasp of the bottle, checked independently from the final MuJoCo state), an
+unreachable place flagged without an exception, and bad input rejected naming the argument.
+
+Cost: one simulated task (about 14 s of simulated time, a few seconds of wall time after the shared
+compilations) and one IK-only plan; every test shares the scene through the module's caches."""
+import numpy as np
+import pytest
+
+from sim import TaskResult, TaskSpec, run_task
+from sim.grasp_objects import GRASP_OBJECTS
+from sim.task_controller import PLACE_TOL_M, STAGES
+
+OBJECT_XY = [(0.0, -0.40)]
+PLACE = (0.20, -0.40)
+
+
+@pytest.fixture(scope="module")
+def pick_and_place():
+    spec = TaskSpec(objects=(1,), object_xy=OBJECT_XY, target=0, grasp=1, place_xy=PLACE, tactile=True,
+                    hand="barrett")
+    return spec, run_task(spec)
+
+
+def test_a_large_diameter_pick_and_place_with_the_barrett_hand_succeeds(pick_and_place):
+    spec, res = pick_and_place
+    assert isinstance(res, TaskResult)
+    assert res.success, res._replace(frames=None)
+    assert res.failed_stage == ""
+    # independent of the flags: where the object ended, how it stands, and that it moved there
+    pos = np.asarray(res.object_pos)
+    assert pos.shape == (3,) and np.all(np.isfinite(pos))
+    assert np.linalg.norm(pos[:2] - np.asarray(PLACE)) < PLACE_TOL_M
+    assert np.linalg.norm(pos[:2] - np.asarray(OBJECT_XY[0])) > 0.15          # it was carried, not left
+    # resting on the table, upright: its centre at the rest height (a tilted bottle's centre is lower)
+    rest = 0.75 + GRASP_OBJECTS[1].rest_height_m
+    assert abs(pos[2] - rest) < 0.005
+    assert res.upright and res.released
+    assert set(res.stage_sim_s) >= {"approach", "grasp", "carry", "place"}
+    assert all(t > 0 for k, t in res.stage_sim_s.items() if k != "plan")
+    assert res.frames is None
+
+
+def test_an_unreachable_place_is_flagged_not_raised():
+    # on the table (its far corner) but 1.36 m from the arm's base: no hand pose there is reachable
+    spec = TaskSpec(objects=(1,), object_xy=OBJECT_XY, target=0, grasp=1, place_xy=(0.85, -0.80), hand="barrett")
+    res = run_task(spec)
+    assert not res.success
+    assert res.failed_stage == "ik_unreachable" and res.failed_stage in STAGES
+    np.testing.assert_allclose(res.object_pos[:2], OBJECT_XY[0])              # nothing was simulated
+    assert "approach" not in res.stage_sim_s
+
+
+@pytest.mark.parametrize("change, match", [
+    (dict(target=1), "target"),
+    (dict(target=-1), "target"),
+    (dict(grasp=3), "grasp"),
+    (dict(objects=(5,)), "objects"),
+    (dict(object_xy=[(0.0, np.nan)]), "object_xy"),
+    (dict(object_xy=[(0.0, -0.4), (0.1, -0.4)]), "object_xy"),
+    (dict(place_xy=(np.nan, -0.4)), "place_xy"),
+    (dict(place_xy=(0.1, -0.4, 0.0)), "place_xy"),
+    (dict(hand_rot=np.ones((3, 3))), "hand_rot"),
+    (dict(hand_rot=-np.eye(3)), "hand_rot"),
+    (dict(hand="shadow"), "hand"),
+    (dict(tactile="yes"), "tactile"),
+])
+def test_bad_input_raises_naming_the_argument(change, match):
+    spec = TaskSpec(objects=(1,), object_xy=OBJECT_XY, target=0, grasp=1, place_xy=PLACE)._replace(**change)
+    with pytest.raises(ValueError, match=match):
+        run_task(spec)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(approach_path=np.zeros((4, 2))), "approach_path"),
+    (dict(approach_path=np.full((4, 3), np.inf)), "approach_path"),
+    (dict(seed=-1), "seed"),
+    (dict(mapping="cutkosky"), "mapping"),
+    (dict(camera="nowhere"), "camera"),
+    (dict(fps=0.0), "fps"),
+])
+def test_bad_options_raise_naming_the_argument(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        run_task(TaskSpec(objects=(1,), object_xy=OBJECT_XY, place_xy=PLACE), **kwargs)
