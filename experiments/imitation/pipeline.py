@@ -100,10 +100,23 @@ def median_filter(x: np.ndarray, width: int) -> np.ndarray:
     return np.median(np.lib.stride_tricks.sliding_window_view(padded, width, axis=0), axis=-1)
 
 
+def plausible(t: Tracked, median_frames: int, reach_m: float = 1.0, jump_m: float = 0.15) -> np.ndarray:
+    """(T,) the tracked frames kept: within `reach_m` of the face and below it by less than an arm
+    (a wrong stereo match triangulates metres away), and within `jump_m` of the running median of
+    the kept frames around them (single-frame swaps of hand and face blobs)."""
+    d = t.diff.astype(np.float64)
+    keep = t.found & (np.linalg.norm(d, axis=1) < reach_m) & (d[:, 2] < 0.3)
+    if not keep.any():
+        return keep
+    smooth = median_filter(held(d, keep), max(median_frames, 5) | 1)
+    return keep & (np.linalg.norm(d - smooth, axis=1) < jump_m)
+
+
 def stream_of(t: Tracked, offset: np.ndarray, median_frames: int) -> np.ndarray:
-    """The recogniser's input (T, 3): the tracked hand - face, held where lost, spike-filtered, minus
-    the tracker's offset from the kinematic features."""
-    return median_filter(held(t.diff.astype(np.float64), t.found), median_frames) - offset
+    """The recogniser's input (T, 3): the tracked hand - face of the plausible frames (`plausible`),
+    held where lost or rejected, spike-filtered, minus the tracker's offset from the kinematic
+    features."""
+    return median_filter(held(t.diff.astype(np.float64), plausible(t, median_frames)), median_frames) - offset
 
 
 # ------------------------------------------------------------------------------------------ PHMMs
@@ -199,21 +212,38 @@ class Recognised(NamedTuple):
     grasp_quat: np.ndarray
 
 
-def movement(rec_online, stream: np.ndarray):
-    """The demonstrated movement: the longest event that a class explains (None if there is none)."""
+def movement(rec_online, stream: np.ndarray, merge_gap: int):
+    """The demonstrated movement: the online detector's events (BMVC §5.4) that a class explains,
+    merged where fewer than `merge_gap` frames lie between them (a pointing hold or a put-down ends a
+    detected movement early; the PHMMs model the whole one), the merged frames recognised once more
+    (class and φ, PHMM eq. 3). (kind, target (2,), start, end) or None if no movement is found."""
     events = P.run_online(rec_online, stream)
     ok = np.flatnonzero(events.found)
     if not ok.size:
         return None
-    i = ok[np.argmax(events.end[ok] - events.start[ok])]
-    return (KINDS[int(events.label[i])], phi_to_xy(np.asarray(events.phi[i], float)), int(events.start[i]),
-            int(events.end[i]))
+    starts, ends = events.start[ok], events.end[ok]
+    group = np.cumsum(np.r_[0, starts[1:] - ends[:-1] > merge_gap])
+    lengths = np.bincount(group, weights=ends - starts + 1)
+    best = int(np.argmax(lengths))
+    s, e = int(starts[group == best].min()), int(ends[group == best].max())
+    segment = stream[s:e + 1]
+    longest = rec_online.options.max_frames
+    if len(segment) > longest:  # longer than any path: the detector's longest event stands
+        i = ok[np.argmax(ends - starts)]
+        return KINDS[int(events.label[i])], phi_to_xy(np.asarray(events.phi[i], float)), int(starts.max()), int(e)
+    padded = np.concatenate([segment, np.repeat(segment[-1:], longest - len(segment), axis=0)])
+    res = P.recognize(list(rec_online.phmms), padded[None], [len(segment)])
+    loglik = np.asarray(res.loglik)[0]
+    k = int(np.argmax(np.where(np.isfinite(loglik), loglik, -np.inf)))
+    return KINDS[k], phi_to_xy(np.asarray(res.phi)[0, k].astype(float)), s, e
 
 
-def grasp_and_putdown(stream: np.ndarray, start: int, end: int) -> tuple[int, int]:
-    """The grasp moment and the put-down of a transfer: the slowest frames of the hand over the first
-    half of the movement (the hand at the object) and over the rest before the return."""
+def grasp_and_putdown(stream: np.ndarray, measured: np.ndarray, start: int, end: int) -> tuple[int, int]:
+    """The grasp moment and the put-down of a transfer: the slowest measured frames of the hand (both
+    it and the frame before tracked, not held) over the first half of the movement (the hand at the
+    object) and over the rest before the return."""
     speed = np.r_[np.inf, np.linalg.norm(np.diff(stream, axis=0), axis=1)]
+    speed = np.where(measured & np.r_[False, measured[:-1]], speed, np.inf)
     length = end - start + 1
 
     def slowest(a, b):
@@ -232,24 +262,24 @@ def hand_crop(frame: np.ndarray, hand_rc: np.ndarray, skin, out_size: int):
 
 
 def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, objects_xy: np.ndarray,
-                   handover_xy, grasp=None) -> Recognised:
+                   handover_xy, grasp=None, merge_gap: int = 10) -> Recognised:
     """Action, target, grasp moment, put-down and place of one tracked demonstration; `grasp`
     (frame index -> (class, quat)) recognises the hand at the grasp moment (None: not recognised)."""
     objects_xy = np.asarray(objects_xy, float)
     if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
         raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
     nan2 = np.full(2, np.nan)
-    if not tracked.found.any():
+    if not plausible(tracked, median_frames).any():
         return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
     stream = stream_of(tracked, offset, median_frames)
-    found = movement(rec_online, stream)
+    found = movement(rec_online, stream, merge_gap)
     if found is None:
         return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
     kind, xy, s, e = found
     target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
     if kind == "point":
         return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan))
-    g, p = grasp_and_putdown(stream, s, e)
+    g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e)
     place = objects_xy[target] + (stream[p, :2] - stream[g, :2])
     cls, quat = grasp(g) if grasp is not None else (-1, np.full(4, np.nan))
     return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float))

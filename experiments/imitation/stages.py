@@ -115,7 +115,7 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
     for demo in progress(demos, desc="validation demonstrations"):
         rec, t = _tracked_demo(cfg, settings, demo, rgb_skin)
         x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
-        both = t.found & visible[: len(t.found)]
+        both = pl.plausible(t, cfg.median_frames) & visible[: len(t.found)]
         gaps.append(t.diff[both] - x[: len(t.found)][both])
         tracked.append(t)
     gaps = np.concatenate(gaps) if gaps else np.zeros((0, 3))

@@ -1,0 +1,82 @@
+"""The imitation loop (issue 21, "The loop"): one scripted demonstration with known answers through the
+whole loop at the quick preset (rendered video -> the stereo front end -> the online PHMMs -> the
+nearest object -> the robot where `sim.task_controller` is in the tree), and the loop's input checks.
+
+Fast: the recording, the front end's tracks and the PHMMs are cached under the project cache (the first
+run of a fresh cache renders, tracks and trains: about a minute); the validation-chosen settings of the
+quick preset (tracker offset, noise, threshold) are fixed here instead of re-running the validation."""
+import numpy as np
+import pytest
+
+from experiments.imitation import Config, Demo, PRESETS
+from experiments.imitation import pipeline as pl
+from experiments.imitation import stages as st
+from experiments.imitation.demonstrations import check_demo, draw_demos
+
+CFG = Config(**PRESETS["quick"])
+# the quick preset's validation choices (`stages.validation_stage`, seed 1000): offset, sigma, threshold
+OFFSET_M = np.array([-0.052, -0.022, 0.006])
+SIGMA_M, THRESHOLD_M = 0.05, 0.08
+# person 0 points at the pitcher (object 2) at the far side of the table, binoculars and cup elsewhere
+DEMO = Demo("point", person=0, seed=7, objects_xy=np.array([[-0.24, -0.32], [0.10, -0.36], [-0.10, -0.47]]),
+            target=2, grasp=-1, place_xy=np.array(CFG.handover_xy))
+
+
+@pytest.fixture(scope="module")
+def loop():
+    import sim
+
+    sim.setup_rendering()
+    settings = CFG.video_settings()
+    _, rgb_skin = st.skin_models(CFG, settings)
+    phmms = st.phmm_models(CFG, settings)
+    rec = st.render_demo(settings, DEMO)
+    tracked = pl.track(CFG, settings, DEMO, rec, rgb_skin)
+    online = pl.recognizer(phmms, SIGMA_M, THRESHOLD_M, CFG.online_window)
+    return rec, tracked, pl.recognise_demo(online, tracked, OFFSET_M, CFG.median_frames, DEMO.objects_xy,
+                                           CFG.handover_xy)
+
+
+def test_scripted_pointing_demonstration(loop):
+    rec, tracked, r = loop
+    assert tracked.found.sum() >= 5                      # the front end followed the hand
+    assert r.kind == "point"                             # the action
+    assert r.target == DEMO.target                       # the object pointed at
+    assert np.linalg.norm(r.target_xy - DEMO.objects_xy[DEMO.target]) < 0.12
+    assert r.start < r.end and r.grasp == -1 and np.allclose(r.place_xy, CFG.handover_xy)
+
+
+def test_robot_fetches_the_recognised_object(loop):
+    tc = st.robot_module()
+    if tc is None:
+        pytest.skip("sim.task_controller is not in the tree")
+    _, _, r = loop
+    res = st.robot_task(CFG, DEMO, r)
+    assert res.success == (res.failed_stage == "")
+    if res.success:  # the handled object at the hand-over spot
+        assert np.linalg.norm(np.asarray(res.object_pos)[:2] - CFG.handover_xy) < CFG.place_tolerance_m + 1e-6
+
+
+def test_bad_input_names_the_argument():
+    settings = CFG.video_settings()
+    with pytest.raises(ValueError, match="demo.kind"):
+        check_demo(DEMO._replace(kind="wave"), settings)
+    with pytest.raises(ValueError, match="demo.grasp"):
+        check_demo(DEMO._replace(kind="transfer", grasp=3), settings)
+    with pytest.raises(ValueError, match="demo.objects_xy"):
+        check_demo(DEMO._replace(objects_xy=np.zeros((2, 2))), settings)
+    with pytest.raises(ValueError, match="P_left"):
+        pl.camera_rotation(np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="n_demos"):
+        Config(n_demos=0)
+    with pytest.raises(ValueError, match="median_frames"):
+        Config(median_frames=2)
+
+
+def test_draws_are_deterministic_and_spread():
+    a, b = draw_demos(6, 3, 3), draw_demos(6, 3, 3)
+    assert all(x.kind == y.kind and np.array_equal(x.objects_xy, y.objects_xy) for x, y in zip(a, b))
+    assert {d.kind for d in a} == {"point", "transfer"}
+    for d in a:
+        gaps = np.linalg.norm(d.objects_xy[:, None] - d.objects_xy[None], axis=-1)[np.triu_indices(3, 1)]
+        assert gaps.min() > 0.1
