@@ -11,8 +11,10 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    and goal, in the object's frame. The plan is turned about the vertical by the yaw that best aligns
    the canonical human hand (`sim.human_grasps.hand_pose_in_world`) with the recognised one
    (`TaskSpec.hand_rot`, world), and moved onto the object. The pre-grasp, grasp, lift, carry, place
-   and retract palm poses are checked with one batched `solve_ik`; any unreachable -> the result
-   fails at "ik_unreachable" without simulating.
+   and retract palm poses are checked with one batched `solve_ik`, at that yaw and at turns of
+   `YAW_STEPS_DEG` (up to 90 degrees) from it: the first yaw at which the arm reaches all six is
+   executed (`TaskResult.yaw_deg`, the imitation as close as the arm allows); none -> the result
+   fails at "ik_unreachable" without simulating (so does a place off the table).
 2. Approach: the palm follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised
    reach retargeted to the arm), else a straight line from the home pose, to the pre-grasp pose, at
    `MOVE_SPEED_M_S` (arc length, min-jerk timing), the orientation slerped from home to the grasp's,
@@ -26,20 +28,22 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    `sim.grasp_rollout.peak_touch` reads them per control period exactly as in the grasp study.
 4. Carry the palm horizontally (at the lift height, the orientation kept) until the object is above
    the place; turn the hand about the object's centre so that the held object stands upright (its
-   axis as measured, a tilt in the grasp, turned to the vertical); lower it until the object (or a finger) touches the table; open the fingers to the open preshape
-   while the palm backs off `OPEN_BACKOFF_M`;
-   retract along the approach direction and up.
+   axis as measured, a tilt in the grasp of up to `MAX_STRAIGHTEN_DEG`, turned to the vertical; a
+   larger tilt means the object pivots in the grasp and turning the hand would drop it); lower it
+   until the object (or a finger) touches the table; open the fingers to the open preshape; retract
+   along the approach direction and up.
 
 Every palm pose becomes arm joint targets by tracking IK: one damped-least-squares solve per control
 step (`solve_ik`, one start, warm-started at the last target), sent to the arm's position servos;
 the fingers' targets go to the hand's servos.
 
 Success (`TaskResult.success`): the handled object ends within `PLACE_TOL_M` of the place in x-y,
-upright (its z axis within `UPRIGHT_TOL_DEG` of vertical; a ball counts as upright) and released (no
-contact with the robot). The first failing stage is named: "ik_unreachable", "approach" (the palm did
-not reach the pre-grasp pose), "grasp" (the object is not held by two links after closing), "lift"
-(held but not raised with the hand), "carry" (dropped on the way), "place" (too far, not upright or
-not released).
+upright (its z axis within `UPRIGHT_TOL_DEG` of vertical; a cube may stand on any face, a ball is
+always upright) and released (no contact with the robot). The first failing stage is named:
+"ik_unreachable", "approach" (the palm did not reach the pre-grasp pose), "grasp" (the object is not
+held by two links after closing), "lift" (held but not raised with the hand), "carry" (dropped on the
+way), "place" (too far, not upright or not released, including an object that slips out while
+lowered).
 
 What it does not do: no collision-aware planning (the straight carry can sweep other objects off
 the table, the arm may brush them), no re-grasp after a failure, no change of hand orientation
@@ -63,19 +67,19 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from lfd_common import as_array, check_choice, check_int, check_real, quat_to_matrix
-from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, check_grasp_class
+from sim.grasp_objects import GRASP_CLASSES, GRASP_NAMES, GRASP_OBJECTS, check_grasp_class, robot_grasp_for
 from sim.grasp_rollout import LIFT_SUCCESS_M, SUBSTEPS, peak_touch
 from sim.grasp_strategy import (CONTROL_DT_S, DONE, HORIZON_S, LIFT, TrialParams, controller_step, initial_state,
                                 object_extent, plan_trials)
 from sim.human_grasps import hand_pose_in_world
-from sim.manipulator import BASE_POS, DEFAULT_OBJECT_XY, DEFAULT_OBJECTS, HOME_Q, manipulator_model, manipulator_scene_xml, \
-    scene_layout as manipulator_layout
+from sim.manipulator import (BASE_POS, DEFAULT_OBJECT_XY, DEFAULT_OBJECTS, HOME_Q, manipulator_qpos,
+                             manipulator_scene_xml, scene_layout as manipulator_layout)
 from sim.manipulator_ik import ArmChain, arm_chain, forward_kinematics, solve_ik
 from sim.person_scene import TableSpec
 from sim.render import setup_rendering
 from sim.robot_hands import HAND_NAMES, SceneLayout, hand_spec
 
-__all__ = ["STAGES", "TaskResult", "TaskSpec", "run_task", "task_sweep"]
+__all__ = ["STAGES", "TaskResult", "TaskSpec", "run_task", "task_sweep", "task_table"]
 
 STAGES: tuple[str, ...] = ("ik_unreachable", "approach", "grasp", "lift", "carry", "place")
 PLACE_TOL_M = 0.05
@@ -84,7 +88,7 @@ MOVE_SPEED_M_S = 0.3         # mean palm speed of the free approach and of the r
 CARRY_SPEED_M_S = 0.15       # mean palm speed while carrying
 LOWER_SPEED_M_S = 0.05       # palm speed while lowering onto the table
 OPEN_S, SETTLE_S = 0.6, 0.3
-OPEN_BACKOFF_M = 0.01        # the palm backs off this far from the object while the fingers open
+MAX_STRAIGHTEN_DEG = 25.0    # a larger tilt in the grasp means the object pivots there: not turned
 STRAIGHTEN_S = 0.4           # turning the held object upright above the place
 HOLD_S = 0.3                 # the grasp controller's hold after its lift (its study holds 1 s)
 RETRACT_M, RETRACT_UP_M = 0.08, 0.06
@@ -365,8 +369,8 @@ class _Sim:
     def obj_pos(self) -> np.ndarray:
         return self.data.xpos[self.scene.arm.object_body[self.target]].copy()
 
-    def obj_axis(self) -> np.ndarray:
-        return self.data.xmat[self.scene.arm.object_body[self.target]].reshape(3, 3)[:, 2].copy()
+    def obj_rot(self) -> np.ndarray:
+        return self.data.xmat[self.scene.arm.object_body[self.target]].reshape(3, 3).copy()
 
     def _pairs(self) -> np.ndarray:
         c = self.data.contact
@@ -389,7 +393,6 @@ class _Sim:
 
 
 def _start_qpos(scene: _Scene, open_: np.ndarray) -> np.ndarray:
-    from sim.manipulator import manipulator_qpos
     return manipulator_qpos(scene.model, scene.arm, HOME_Q, open_)
 
 
@@ -411,6 +414,22 @@ def _move(sim: _Sim, points: np.ndarray, rot_from: np.ndarray, rot_to: np.ndarra
     rots = slerp(np.linspace(0.0, 1.0, len(path) + 1)[1:]).as_matrix()
     for p, r in zip(path, rots):
         sim.step(p, r, fingers)
+
+
+def _upright_axis(obj, rot: np.ndarray) -> np.ndarray:
+    """The object axis (3,) that should stand vertical: its z axis; for a cube, whichever of its axes
+    (signed) is nearest to the vertical (a cube stands on any face)."""
+    if obj.geom_type == "box" and np.ptp(obj.size) < 1e-9:
+        k = int(np.argmax(np.abs(rot[2])))
+        return rot[:, k] * np.sign(rot[2, k])
+    return rot[:, 2]
+
+
+def _tilt(obj, rot: np.ndarray) -> float:
+    """How far (rad) the object with rotation `rot` (3, 3) is from standing upright (0 for a ball)."""
+    if obj.geom_type == "sphere":
+        return 0.0
+    return float(np.arccos(np.clip(_upright_axis(obj, rot)[2], -1.0, 1.0)))
 
 
 def _tilt_correction(axis: np.ndarray) -> np.ndarray:
@@ -476,9 +495,8 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
 
     def finish(failed: str) -> TaskResult:
         next_stage("")
-        pos, axis = sim.obj_pos(), sim.obj_axis()
-        upright = bool(GRASP_OBJECTS[spec.objects[spec.target]].geom_type == "sphere"
-                       or axis[2] >= np.cos(np.radians(UPRIGHT_TOL_DEG)))
+        pos = sim.obj_pos()
+        upright = bool(_tilt(held_obj, sim.obj_rot()) <= np.radians(UPRIGHT_TOL_DEG))
         released = not sim.touches(scene.robot_geoms)
         err = float(np.linalg.norm(pos[:2] - spec.place_xy))
         ok = failed == "" and upright and released and err <= PLACE_TOL_M
@@ -488,6 +506,7 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
         return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, sim_s, wall_s, frames, fps)
 
     n_corr = 0
+    held_obj = GRASP_OBJECTS[spec.objects[spec.target]]
     try:
         # 1. approach: along the caller's path (or a straight line) to the pre-grasp pose
         home_pos, home_rot = (np.asarray(a, float) for a in forward_kinematics(scene.chain, HOME_Q))
@@ -535,8 +554,9 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
             return finish("carry")
         # straighten: turn the hand about the object's centre so that the held object's axis is vertical
         rot = plan.rot
-        if GRASP_OBJECTS[spec.objects[spec.target]].geom_type != "sphere":
-            fix = _tilt_correction(sim.obj_axis())
+        tilt = _tilt(held_obj, sim.obj_rot())
+        if 0.0 < tilt <= np.radians(MAX_STRAIGHTEN_DEG):
+            fix = _tilt_correction(_upright_axis(held_obj, sim.obj_rot()))
             centre_now = sim.obj_pos()
             straight = centre_now + fix @ (goal - centre_now)
             slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([rot, fix @ rot])))
@@ -555,14 +575,12 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
                 break
             pos = pos - [0.0, 0.0, LOWER_SPEED_M_S * CONTROL_DT_S]
             sim.step(pos, rot, fingers)
-        # open, backing the palm off along the approach so that it stops pressing on the object
-        a = params.approach[0].astype(float)
-        start = sim.palm()
+        pos = sim.palm()
         n_open = int(round(OPEN_S / CONTROL_DT_S))
         for s in np.linspace(0.0, 1.0, n_open + 1)[1:]:
-            pos = start - min(1.0, 2 * s) * OPEN_BACKOFF_M * a
             sim.step(pos, rot, closed + s * (open_ - closed))
         _hold(sim, pos, rot, open_, SETTLE_S / 2)
+        a = params.approach[0].astype(float)
         back = pos - RETRACT_M * a
         _move(sim, np.stack([pos, back, back + [0.0, 0.0, RETRACT_UP_M]]), rot, rot, open_,
               MOVE_SPEED_M_S / 2)
@@ -584,7 +602,8 @@ def task_sweep(hands: Sequence[str] = HAND_NAMES, grasps: Sequence[int] = GRASP_
                progress: bool = True) -> list[dict]:
     """Every (hand, grasp class, place): the grasp class's own object alone at `SWEEP_OBJECT_XY`,
     canonical human hand orientation. Returns one dict per task (hand, grasp, place, success,
-    failed_stage, place_error_m, upright, released, wall_s)."""
+    failed_stage, place_error_m, upright, released, wall_s). Run it with
+    `python -c "from sim.task_controller import *; print(task_table(task_sweep()))"`."""
     rows = []
     for hand in hands:
         for g in grasps:
@@ -599,13 +618,15 @@ def task_sweep(hands: Sequence[str] = HAND_NAMES, grasps: Sequence[int] = GRASP_
                 if progress:
                     r = rows[-1]
                     print(f"{hand:9s} grasp {g:2d} place {place}: {'ok  ' if r['success'] else 'FAIL'} "
-                          f"{r['failed_stage']:14s} err {100 * r['place_error_m']:5.1f} cm  {r['wall_s']:.1f} s",
+                          f"{r['failed_stage']:14s} err {100 * r['place_error_m']:5.1f} cm upright {r['upright']:d} "
+                          f"released {r['released']:d}  {r['wall_s']:.1f} s",
                           flush=True)
     return rows
 
 
-def _table(rows: list[dict]) -> str:
-    from sim.grasp_objects import GRASP_NAMES, robot_grasp_for
+def task_table(rows: list[dict]) -> str:
+    """A markdown table of `task_sweep`'s rows: successes per grasp class and hand, the robot preshape,
+    the stages that failed."""
     hands = sorted({r["hand"] for r in rows}, key=HAND_NAMES.index)
     lines = ["| grasp | " + " | ".join(hands) + " |", "|---|" + "---|" * len(hands)]
     for g in sorted({r["grasp"] for r in rows}):
@@ -614,14 +635,7 @@ def _table(rows: list[dict]) -> str:
             sel = [r for r in rows if r["hand"] == h and r["grasp"] == g]
             n_ok = sum(r["success"] for r in sel)
             fails = sorted({r["failed_stage"] for r in sel if not r["success"]})
-            cells.append(f"{n_ok}/{len(sel)} ({robot_grasp_for(g, h)})" + (f" fails: {', '.join(fails)}" if fails else ""))
+            note = f" fails: {', '.join(fails)}" if fails else ""
+            cells.append(f"{n_ok}/{len(sel)} ({robot_grasp_for(g, h)}){note}")
         lines.append(f"| {g} {GRASP_NAMES[g]} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
-
-
-if __name__ == "__main__":
-    from lfd_common import enable_compilation_cache
-    enable_compilation_cache()
-    _rows = task_sweep()
-    print(_table(_rows))
-    print(f"task success: {sum(r['success'] for r in _rows)}/{len(_rows)}")
