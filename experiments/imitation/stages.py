@@ -214,7 +214,8 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
            "target_error_cm": float(np.linalg.norm(r.target_xy - truth_xy) * 100) if r.kind else float("nan"),
-           "grasp": demo.grasp, "grasp_recognised": r.grasp, "tracked_frames": int(tracked.found.sum()),
+           "grasp": demo.grasp, "grasp_recognised": r.grasp,
+           "tracked_frames": int(pl.plausible(tracked, cfg.median_frames).sum()),
            "place_error_cm": float("nan"), "pickup_error_frames": float("nan"), "putdown_error_frames": float("nan"),
            "recognised": r, "rec": rec, "tracked": tracked}
     if demo.kind == "transfer" and r.kind == "transfer":
