@@ -10,15 +10,18 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    grasps from the top or the side, open-loop grasps to a predefined distance), the approach start
    and goal, in the object's frame. The plan is turned about the vertical by the yaw that best aligns
    the canonical human hand (`sim.human_grasps.hand_pose_in_world`) with the recognised one
-   (`TaskSpec.hand_rot`, world), and moved onto the object. The pre-grasp, grasp, lift, carry, place
-   and retract palm poses are checked with one batched `solve_ik`, at that yaw and at turns of
-   `YAW_STEPS_DEG` (up to 90 degrees) from it: the first yaw at which the arm reaches all six is
-   executed (`TaskResult.yaw_deg`, the imitation as close as the arm allows); none -> the result
+   (`TaskSpec.hand_rot`, world), and moved onto the object. The palm poses above the pre-grasp, at
+   the pre-grasp, grasp, lift, above the place, at the place and retracted are checked with one
+   batched `solve_ik`, at that yaw and at turns of `YAW_STEPS_DEG` (up to 90 degrees) from it, and
+   with MuJoCo's collision detection at the IK answers (no contact with another object, none of the
+   arm with the table): the first yaw at which the arm reaches all seven cleanly is executed (`TaskResult.yaw_deg`, the imitation as close as the arm allows); none -> the result
    fails at "ik_unreachable" without simulating (so does a place off the table).
 2. Approach: the palm follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised
-   reach retargeted to the arm), else a straight line from the home pose, to the pre-grasp pose, at
-   `MOVE_SPEED_M_S` (arc length, min-jerk timing), the orientation slerped from home to the grasp's,
-   ending `ABOVE_M` above the pre-grasp pose, then descends onto it (the open fingers clear the object).
+   reach retargeted to the arm), else a straight line from the home pose, to `ABOVE_M` above the
+   pre-grasp pose, at `MOVE_SPEED_M_S` (arc length, min-jerk timing), the orientation slerped from
+   home to the grasp's; then it descends onto the pre-grasp pose (the open fingers clear the object).
+   The path is not checked for collisions (a joint-space move from home to the checked
+   configuration above the pre-grasp was tried and was no better on the default three-object scene).
 3. Grasp and lift: `sim.grasp_strategy.controller_step` itself (the floating-hand study's controller,
    jitted, B = 1) drives the palm position and the fingers: approach along the planned line, stop at
    the first touch for volar grasps and, if it is not on the palm and `tactile` is on, retract and
@@ -286,28 +289,59 @@ def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float) -> _P
     return _Plan(world, rot, goal - standoff * approach, centre, yaw_deg)
 
 
-def _reachable_plan(spec: TaskSpec, chain: ArmChain, seed: int, mapping: str) -> tuple[_Plan, bool]:
-    """The plan of the first yaw in `YAW_STEPS_DEG` (turns from the preferred yaw) whose six key poses
-    the arm reaches (one batched IK call for all), and whether there is one (else the preferred)."""
+def _reachable_plan(spec: TaskSpec, scene: _Scene, seed: int, mapping: str) -> tuple[_Plan, bool]:
+    """The plan of the first yaw in `YAW_STEPS_DEG` (turns from the preferred yaw) whose key poses
+    (`_key_poses`) the arm reaches (one batched IK call for all) without touching another object, or
+    the table with anything but the hand (`_collides`); and whether there is one (else the preferred)."""
     params, _ = plan_trials(spec.hand, [spec.grasp], np.zeros((1, 2)), [0.0], [spec.tactile], [seed],
                             mapping=mapping, hold_s=HOLD_S)
     psi0 = _preferred_yaw(spec.grasp, spec.hand_rot, spec.object_xy[spec.target])
     plans = [_plan(spec, params, psi0 + np.radians(d), d) for d in YAW_STEPS_DEG]
-    poses = np.concatenate([_key_poses(p, spec.place_xy) for p in plans])
-    rots = np.concatenate([np.tile(p.rot, (6, 1, 1)) for p in plans])
-    ik = solve_ik(chain, poses, rots, np.tile(HOME_Q, (len(poses), 1)), pos_tol=5e-3, rot_tol=0.05)
-    ok = np.asarray(ik.reachable).reshape(len(plans), 6).all(1)
-    return (plans[int(np.argmax(ok))], True) if ok.any() else (plans[0], False)
+    poses = np.stack([_key_poses(p, spec.place_xy) for p in plans])                       # (Y, P, 3)
+    n_yaw, n_pose = poses.shape[:2]
+    rots = np.repeat(np.stack([p.rot for p in plans]), n_pose, axis=0)
+    ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_yaw * n_pose, 1)), pos_tol=5e-3,
+                  rot_tol=0.05)
+    ok = np.asarray(ik.reachable).reshape(n_yaw, n_pose).all(1)
+    q = np.asarray(ik.q, float).reshape(n_yaw, n_pose, -1)
+    for k in np.flatnonzero(ok):
+        if not _collides(scene, spec.target, q[k], plans[k].params):
+            return plans[k], True
+    return plans[0], False
+
+
+def _collides(scene: _Scene, target: int, q: np.ndarray, params: TrialParams) -> bool:
+    """Whether the robot at any of the arm configurations q (P, 7) (fingers open) touches an object other
+    than `target` (at their start positions), or the table with a part other than the hand."""
+    model, data = scene.model, mujoco.MjData(scene.model)
+    others = np.array([model.body_geomadr[b] for k, b in enumerate(scene.arm.object_body) if k != target], int)
+    arm_geoms = np.setdiff1d(scene.robot_geoms, scene.hand_geoms)
+    base = manipulator_qpos(model, scene.arm, HOME_Q, params.open_[0].astype(float))
+    for qk in q:
+        data.qpos[:] = base
+        data.qpos[scene.arm.arm_qpos] = qk
+        mujoco.mj_forward(model, data)
+        pairs = np.array([[c.geom1, c.geom2] for c in data.contact[:data.ncon]], int).reshape(-1, 2)
+        robot = np.isin(pairs, scene.robot_geoms)
+        hit_other = (robot[:, 0] & np.isin(pairs[:, 1], others)) | (robot[:, 1] & np.isin(pairs[:, 0], others))
+        arm = np.isin(pairs, arm_geoms)
+        table = pairs == scene.table_geom
+        hit_table = (arm[:, 0] & table[:, 1]) | (arm[:, 1] & table[:, 0])
+        if np.any(hit_other | hit_table):
+            return True
+    return False
 
 
 def _key_poses(plan: _Plan, place_xy: np.ndarray) -> np.ndarray:
-    """(6, 3) palm positions to check: pre-grasp, grasp, lift, above the place, at the place, retract."""
+    """(7, 3) palm positions to check: above the pre-grasp, pre-grasp, grasp, lift, above the place, at
+    the place, retract."""
     a = plan.params.approach[0].astype(float)
     lift = plan.grasp_palm + [0.0, 0.0, 0.10]
     carry = lift + np.append(place_xy - plan.obj_centre[:2], 0.0)
     placed = carry - [0.0, 0.0, 0.10]
     retract = placed - RETRACT_M * a + [0.0, 0.0, RETRACT_UP_M]
-    return np.stack([plan.params.start[0], plan.grasp_palm, lift, carry, placed, retract])
+    pre = plan.params.start[0]
+    return np.stack([pre + [0.0, 0.0, ABOVE_M], pre, plan.grasp_palm, lift, carry, placed, retract])
 
 
 # ---------------------------------------------------------------- the simulation
@@ -351,6 +385,10 @@ class _Sim:
         ik = solve_ik(self.scene.chain, pos[None], rot[None], self.q_cmd[None], n_restarts=1, rounds=1,
                       iterations=TRACK_ITERATIONS)
         self.q_cmd = np.asarray(ik.q[0], float)
+        self._step(fingers)
+
+    def _step(self, fingers: np.ndarray) -> None:
+        """One control period with the arm's servos at `q_cmd` and the hand's at fingers (D,)."""
         arm = self.scene.arm
         self.data.ctrl[arm.arm_ctrl] = self.q_cmd
         self.data.ctrl[arm.hand_ctrl] = fingers
@@ -476,7 +514,7 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
 
     sim_s, wall_s = {}, {}
     clock = time.perf_counter()
-    plan, reachable = _reachable_plan(spec, scene.chain, seed, mapping)
+    plan, reachable = _reachable_plan(spec, scene, seed, mapping)
     wall_s["plan"], sim_s["plan"] = time.perf_counter() - clock, 0.0
     centre = plan.obj_centre
     if not (reachable and _on_table(spec.place_xy)):
