@@ -51,8 +51,11 @@ def test_robot_fetches_the_recognised_object(loop):
     if tc is None:
         pytest.skip("sim.task_controller is not in the tree")
     _, _, r = loop
-    res = st.robot_task(CFG, DEMO, r)
-    assert res.success == (res.failed_stage == "")
+    spec = st.task_spec(CFG, DEMO, r, tc)  # the script's object, its stand-in's grasp, to the hand-over spot
+    assert spec.target == DEMO.target and spec.grasp == spec.objects[DEMO.target]
+    assert np.allclose(spec.object_xy, DEMO.objects_xy) and np.allclose(spec.place_xy, CFG.handover_xy)
+    res = tc.run_task(spec, seed=DEMO.seed)
+    assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + tuple(tc.STAGES)
     if res.success:  # the handled object at the hand-over spot
         assert np.linalg.norm(np.asarray(res.object_pos)[:2] - CFG.handover_xy) < CFG.place_tolerance_m + 1e-6
 

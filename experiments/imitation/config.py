@@ -20,7 +20,7 @@ class Config:
     n_demos: int = 50                    # evaluated demonstrations
     n_validation: int = 6                # validation demonstrations (own seed): feature offset, noise, threshold
     pad_frames: int = 25                 # recordings padded to a multiple of this (one compilation per length)
-    handover_xy: tuple[float, ...] = (-0.1, -0.22)   # where a fetched object is brought (world x, y; in front of the person)
+    handover_xy: tuple[float, ...] = (-0.1, -0.30)   # where a fetched object is brought (world x, y; in front of the person)
     # PHMMs (Humanoids 2008 §III) trained on the demonstrations' kinematics, 3 x 3 grid over the objects' area
     n_states: int = 6
     train_repetitions: int = 4           # movements per grid corner and class

@@ -64,22 +64,24 @@ def _free(rng, taken: np.ndarray, gap: float) -> np.ndarray:
     return xy
 
 
-def draw_demos(n: int, seed: int, n_persons: int, handover_xy=(-0.1, -0.22), kinds=KINDS) -> list[Demo]:
+def draw_demos(n: int, seed: int, n_persons: int, handover_xy=(-0.1, -0.30), kinds=KINDS) -> list[Demo]:
     """n random demonstrations (kinds alternate in a random order; persons, objects' places, target,
-    grasp and new place random), deterministic from `seed`."""
+    grasp and new place random; objects and places clear of the hand-over spot), deterministic from
+    `seed`."""
     check_int(n, "n", min_value=1)
     check_int(n_persons, "n_persons", min_value=1)
     rng = np.random.default_rng([seed, 21, 5])
     kind_of = rng.permutation(np.arange(n) % len(kinds))
     out = []
     for i in range(n):
+        handover = np.asarray(handover_xy, float)[None]
         places = np.zeros((0, 2))
         for _ in range(N_OBJECTS):
-            places = np.vstack([places, _free(rng, places, MIN_GAP_M)])
+            places = np.vstack([places, _free(rng, np.vstack([handover, places]), MIN_GAP_M)])
         target = int(rng.integers(N_OBJECTS))
         kind = kinds[kind_of[i]]
         if kind == "transfer":
-            grasp, place = int(rng.choice(GRASP_CLASSES)), _free(rng, places, MIN_GAP_M)
+            grasp, place = int(rng.choice(GRASP_CLASSES)), _free(rng, np.vstack([handover, places]), MIN_GAP_M)
         else:
             grasp, place = -1, np.asarray(handover_xy, float)
         out.append(Demo(kind, int(rng.integers(n_persons)), int(rng.integers(1 << 30)), places, target, grasp, place))

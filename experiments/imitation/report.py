@@ -34,7 +34,7 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
             ["grasp class accuracy (transfers; a missed transfer counts wrong)", _fmt(metrics["grasp_accuracy"]),
              "GRASP 61-75 % (single images)"],
             ["place error (median, cm)", _fmt(metrics["place_error_cm"]), "—"],
-            ["pick-up / put-down error (mean |frames|)",
+            ["pick-up / put-down error (mean abs, frames)",
              f"{_fmt(metrics['pickup_error_frames_mean_abs'])} / {_fmt(metrics['putdown_error_frames_mean_abs'])}",
              "LfD 1.2 / 3.4 frames (25 fps)"],
             ["recognition all right", _fmt(metrics["recognition_success_rate"]), "—"],
@@ -50,6 +50,8 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
         f"{metrics['chosen_sigma_m']:g} m, movement threshold {metrics['chosen_threshold_m']:g} m "
         f"(scores: right actions + right targets {metrics['validation_scores']}).", "",
         "## Stage times (s per demonstration)", "",
+        "Rendering and the front end's tracks are cached per demonstration (a rerun reads them); the first run of "
+        "a demonstration pays both, and the first front-end call of a process its compilation.", "",
         markdown_table(["stage", "s"], [[k, f"{v:.2f}"] for k, v in metrics["stage_time_s"].items()]), "",
         "## Demonstrations", "",
         markdown_table(["#", "person", "kind", "recognised", "object", "recognised", "error cm", "grasp", "recognised",

@@ -177,22 +177,26 @@ def scene_objects(demo: Demo) -> tuple[int, ...]:
     return tuple(objects)
 
 
+def task_spec(cfg: Config, demo: Demo, r: pl.Recognised, tc):
+    """The `tc.TaskSpec` of what was recognised: the recognised object among the scene's objects
+    (`scene_objects`), the recognised grasp (a pointing demonstration: the grasp class of the object's
+    stand-in), the hand-over spot or the recognised place; the orientation: the controller's canonical
+    one (the recognised orientation is relative to the camera and not turned into the world here)."""
+    objects = scene_objects(demo)
+    grasp = r.grasp if (r.kind == "transfer" and r.grasp in GRASP_CLASSES) else objects[r.target]
+    return tc.TaskSpec(objects=objects, object_xy=np.asarray(demo.objects_xy, float), target=int(r.target),
+                       grasp=int(grasp), place_xy=np.asarray(r.place_xy, float), hand_rot=None, tactile=True,
+                       hand=cfg.robot_hand)
+
+
 def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, render: bool = False):
     """The robot repeats what was recognised (`sim.task_controller.run_task`, MAP §III grasp strategy
-    through the mapping table): the recognised object among the scene's objects (`scene_objects`), the
-    recognised grasp (a pointing demonstration: the grasp class of the object's stand-in), the hand-over
-    spot or the recognised place; the orientation: the controller's canonical one (the recognised
-    orientation is relative to the camera and not turned into the world here). Returns the
-    `TaskResult`, or None without the controller."""
+    through the mapping table) with the `task_spec`. Returns the `TaskResult`, or None without the
+    controller."""
     tc = robot_module()
     if tc is None:
         return None
-    objects = scene_objects(demo)
-    grasp = r.grasp if (r.kind == "transfer" and r.grasp in GRASP_CLASSES) else objects[r.target]
-    spec = tc.TaskSpec(objects=objects, object_xy=np.asarray(demo.objects_xy, float), target=int(r.target),
-                       grasp=int(grasp), place_xy=np.asarray(r.place_xy, float), hand_rot=None, tactile=True,
-                       hand=cfg.robot_hand)
-    return tc.run_task(spec, seed=int(demo.seed % 1000), render=render)
+    return tc.run_task(task_spec(cfg, demo, r, tc), seed=int(demo.seed % 1000), render=render)
 
 
 # ------------------------------------------------------------------------------------------ per demo
