@@ -16,10 +16,11 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    with MuJoCo's collision detection at the IK answers (no contact with another object, none of the
    arm with the table): the first yaw at which the arm reaches all seven cleanly is executed (`TaskResult.yaw_deg`, the imitation as close as the arm allows); none -> the result
    fails at "ik_unreachable" without simulating (so does a place off the table).
-2. Approach: the palm follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised
-   reach retargeted to the arm), else a straight line from the home pose, to `ABOVE_M` above the
-   pre-grasp pose, at `MOVE_SPEED_M_S` (arc length, min-jerk timing), the orientation slerped from
-   home to the grasp's; then it descends onto the pre-grasp pose (the open fingers clear the object).
+2. Approach: the palm rises `CLEAR_M` from home (whose fingers point down at the table), then
+   follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised reach retargeted
+   to the arm), else a straight line, to `ABOVE_M` above the pre-grasp pose, at `MOVE_SPEED_M_S` (arc
+   length, min-jerk timing), the orientation slerped from home to the grasp's; then it descends onto
+   the pre-grasp pose (the open fingers clear the object).
    The path is not checked for collisions (a joint-space move from home to the checked
    configuration above the pre-grasp was tried and was no better on the default three-object scene).
 3. Grasp and lift: `sim.grasp_strategy.controller_step` itself (the floating-hand study's controller,
@@ -95,6 +96,7 @@ MAX_STRAIGHTEN_DEG = 25.0    # a larger tilt in the grasp means the object pivot
 STRAIGHTEN_S = 0.4           # turning the held object upright above the place
 HOLD_S = 0.3                 # the grasp controller's hold after its lift (its study holds 1 s)
 RETRACT_M, RETRACT_UP_M = 0.08, 0.06
+CLEAR_M = 0.15               # the palm first rises this far from home (its fingers point down at the table)
 ABOVE_M = 0.12               # the approach ends with a vertical descent from this far above the pre-grasp
 APPROACH_TOL_M = 0.02        # the palm within this of the pre-grasp pose after the approach
 TRACK_ITERATIONS = 10        # DLS steps per control step of the tracking IK
@@ -546,11 +548,13 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
     n_corr = 0
     held_obj = GRASP_OBJECTS[spec.objects[spec.target]]
     try:
-        # 1. approach: along the caller's path (or a straight line) to the pre-grasp pose
+        # 1. approach: up, along the caller's path (or a straight line) to above the pre-grasp pose, down
         home_pos, home_rot = (np.asarray(a, float) for a in forward_kinematics(scene.chain, HOME_Q))
         pre = params.start[0].astype(float)
         above = pre + [0.0, 0.0, ABOVE_M]
-        points = np.concatenate([home_pos[None]] + ([path] if path is not None else []) + [above[None]])
+        clear = home_pos + [0.0, 0.0, CLEAR_M]
+        points = np.concatenate([home_pos[None], clear[None]] + ([path] if path is not None else [])
+                                + [above[None]])
         _move(sim, points, home_rot, plan.rot, open_, MOVE_SPEED_M_S)
         _move(sim, np.stack([above, pre]), plan.rot, plan.rot, open_, MOVE_SPEED_M_S / 2)
         _hold(sim, pre, plan.rot, open_, SETTLE_S)
