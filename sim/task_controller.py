@@ -14,15 +14,16 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    the pre-grasp, grasp, lift, above the place, at the place and retracted are checked with one
    batched `solve_ik`, at that yaw and at turns of `YAW_STEPS_DEG` (up to 90 degrees) from it, and
    with MuJoCo's collision detection at the IK answers (no contact with another object, none of the
-   arm with the table): the first yaw at which the arm reaches all seven cleanly is executed (`TaskResult.yaw_deg`, the imitation as close as the arm allows); none -> the result
-   fails at "ik_unreachable" without simulating (so does a place off the table).
+   arm with the table): the first yaw at which the arm reaches all seven cleanly is executed
+   (`TaskResult.yaw_deg`: the imitation as close as the arm allows); none -> the result fails at
+   "ik_unreachable" without simulating (so does a place off the table).
 2. Approach: the palm rises `CLEAR_M` from home (whose fingers point down at the table), then
    follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised reach retargeted
    to the arm), else a straight line, to `ABOVE_M` above the pre-grasp pose, at `MOVE_SPEED_M_S` (arc
    length, min-jerk timing), the orientation slerped from home to the grasp's; then it descends onto
-   the pre-grasp pose (the open fingers clear the object).
-   The path is not checked for collisions (a joint-space move from home to the checked
-   configuration above the pre-grasp was tried and was no better on the default three-object scene).
+   the pre-grasp pose (the open fingers clear the object). The path is not checked for collisions
+   (a joint-space move from home to the checked configuration above the pre-grasp was tried and was
+   no better on the default three-object scene).
 3. Grasp and lift: `sim.grasp_strategy.controller_step` itself (the floating-hand study's controller,
    jitted, B = 1) drives the palm position and the fingers: approach along the planned line, stop at
    the first touch for volar grasps and, if it is not on the palm and `tactile` is on, retract and
@@ -49,8 +50,8 @@ held by two links after closing), "lift" (held but not raised with the hand), "c
 way), "place" (too far, not upright or not released, including an object that slips out while
 lowered).
 
-What it does not do: no collision-aware planning (the straight carry can sweep other objects off
-the table, the arm may brush them), no re-grasp after a failure, no change of hand orientation
+What it does not do: no collision-aware path planning (only the key poses are checked; the
+straight carry can sweep other objects off the table, the arm may brush them), no re-grasp after a failure, no change of hand orientation
 between grasp and place (a place that needs one is unreachable), no force control while lowering
 (it stops at the first object-table contact). The plan uses the geometry of the grasp class's own
 object (`sim.grasp_objects.GRASP_OBJECTS[grasp]`, as the grasp study does); a handled object of
@@ -586,12 +587,11 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
         next_stage("carry")
         fingers = closed
         cmd = np.asarray(state.cmd[0], float)
-        held = sim.obj_pos() - sim.palm()
         goal = cmd + np.append(spec.place_xy - sim.obj_pos()[:2], 0.0)
         _move(sim, np.stack([cmd, goal]), plan.rot, plan.rot, fingers, CARRY_SPEED_M_S)
         _hold(sim, goal, plan.rot, fingers, SETTLE_S)
-        dropped = (sim.obj_pos()[2] - centre[2] < LIFT_SUCCESS_M / 2
-                   or np.linalg.norm(sim.obj_pos() - sim.palm() - held) > 0.03)
+        # dropped: no longer touching the hand, or fallen (an object that turns in the grasp is still held)
+        dropped = sim.obj_pos()[2] - centre[2] < LIFT_SUCCESS_M / 2 or not sim.touches(scene.hand_geoms)
         if dropped:
             return finish("carry")
         # straighten: turn the hand about the object's centre so that the held object's axis is vertical
