@@ -15,8 +15,8 @@ from experiments.imitation.demonstrations import check_demo, draw_demos
 
 CFG = Config(**PRESETS["quick"])
 # the quick preset's validation choices (`stages.validation_stage`, seed 1000): offset, sigma, threshold
-OFFSET_M = np.array([-0.052, -0.022, 0.006])
-SIGMA_M, THRESHOLD_M = 0.05, 0.08
+OFFSET_M = np.array([-0.016, -0.032, 0.017])
+SIGMA_M, THRESHOLD_M = 0.1, 0.08
 # person 0 points at the pitcher (object 2) at the far side of the table, binoculars and cup elsewhere
 DEMO = Demo("point", person=0, seed=7, objects_xy=np.array([[-0.24, -0.32], [0.10, -0.36], [-0.10, -0.47]]),
             target=2, grasp=-1, place_xy=np.array(CFG.handover_xy))

@@ -20,14 +20,14 @@ class Config:
     n_demos: int = 50                    # evaluated demonstrations
     n_validation: int = 6                # validation demonstrations (own seed): feature offset, noise, threshold
     pad_frames: int = 25                 # recordings padded to a multiple of this (one compilation per length)
-    handover_xy: tuple[float, ...] = (-0.1, -0.30)   # where a fetched object is brought (world x, y; in front of the person)
+    handover_xy: tuple[float, ...] = (-0.1, -0.30)   # where a fetched object goes (world x, y; before the person)
     # PHMMs (Humanoids 2008 §III) trained on the demonstrations' kinematics, 3 x 3 grid over the objects' area
     n_states: int = 6
     train_repetitions: int = 4           # movements per grid corner and class
     phmm_iter: int = 15
     noise_sigmas_m: tuple[float, ...] = (0.04, 0.08, 0.12)   # validation: observation noise added to the PHMMs
     online_window: int = 3               # BMVC §5.4: detector look-ahead = report latency, frames
-    online_thresholds_m: tuple[float, ...] = (0.06, 0.10)    # validation: displacement over the window that starts a movement
+    online_thresholds_m: tuple[float, ...] = (0.06, 0.10)  # validation: displacement over the window that starts one
     median_frames: int = 3               # spike filter on the tracked positions (odd, 1: none)
     # grasp recognition (GRASP §III): the grasp study's preset, exact kNN over its database
     grasp_preset: str = "quick"

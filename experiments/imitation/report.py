@@ -25,7 +25,8 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
     lines = [
         "# Imitation: from a demonstration video to the robot (issue 21, \"The loop\")", "",
         f"{metrics['n_demonstrations']} demonstrations ({metrics['n_point']} pointing, {metrics['n_transfer']} "
-        f"pick-and-place) at {settings.width} x {settings.height}, {settings.fps:g} fps; persons 0-{cfg.demonstrators - 1} "
+        f"pick-and-place) at {settings.width} x {settings.height}, {settings.fps:g} fps; "
+        f"persons 0-{cfg.demonstrators - 1} "
         f"demonstrate, the skin models come from the others' clips; run time {metrics['runtime_s']:.0f} s.", "",
         markdown_table(["measure", "ours", "papers"], [
             ["action accuracy (point vs pick)", _fmt(metrics["action_accuracy"]), "PHMM 93-94 % (BMVC Table, mocap)"],

@@ -267,7 +267,8 @@ def summarise(results: list[dict], robot_ran: bool) -> dict:
         "target_error_cm": float(np.median(errs)) if errs else float("nan"),
         "target_error_cm_mean": mean(errs),
         "grasp_accuracy": mean([r["grasp_recognised"] == r["grasp"] for r in transfers]),
-        "grasp_found_rate": mean([r["grasp_recognised"] != -1 for r in transfers if r["kind_recognised"] == "transfer"]),
+        "grasp_found_rate": mean([r["grasp_recognised"] != -1 for r in transfers
+                                  if r["kind_recognised"] == "transfer"]),
         "place_error_cm": float(np.median(place)) if place else float("nan"),
         "pickup_error_frames_mean_abs": mean([abs(r["pickup_error_frames"]) for r in transfers
                                               if np.isfinite(r["pickup_error_frames"])]),
