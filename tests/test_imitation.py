@@ -1,6 +1,6 @@
 """The imitation loop (issue 21, "The loop"): one scripted demonstration with known answers through the
 whole loop at the quick preset (rendered video -> the stereo front end -> the online PHMMs -> the
-nearest object -> the robot where `sim.task_controller` is in the tree), and the loop's input checks.
+nearest object -> the robot, `sim.task_controller`), and the loop's input checks.
 
 Fast: the recording, the front end's tracks and the PHMMs are cached under the project cache (the first
 run of a fresh cache renders, tracks and trains: about a minute); the validation-chosen settings of the
@@ -8,6 +8,8 @@ quick preset (tracker offset, noise, threshold) are fixed here instead of re-run
 import numpy as np
 import pytest
 
+import sim
+import sim.task_controller
 from experiments.imitation import Config, Demo, PRESETS
 from experiments.imitation import pipeline as pl
 from experiments.imitation import stages as st
@@ -24,8 +26,6 @@ DEMO = Demo("point", person=0, seed=7, objects_xy=np.array([[-0.24, -0.32], [0.1
 
 @pytest.fixture(scope="module")
 def loop():
-    import sim
-
     sim.setup_rendering()
     settings = CFG.video_settings()
     _, rgb_skin = st.skin_models(CFG, settings)
@@ -47,15 +47,12 @@ def test_scripted_pointing_demonstration(loop):
 
 
 def test_robot_fetches_the_recognised_object(loop):
-    tc = st.robot_module()
-    if tc is None:
-        pytest.skip("sim.task_controller is not in the tree")
     _, _, r = loop
-    spec = st.task_spec(CFG, DEMO, r, tc)  # the script's object, its stand-in's grasp, to the hand-over spot
+    spec = st.task_spec(CFG, DEMO, r)  # the script's object, its stand-in's grasp, to the hand-over spot
     assert spec.target == DEMO.target and spec.grasp == spec.objects[DEMO.target]
     assert np.allclose(spec.object_xy, DEMO.objects_xy) and np.allclose(spec.place_xy, CFG.handover_xy)
-    res = tc.run_task(spec, seed=DEMO.seed)
-    assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + tuple(tc.STAGES)
+    res = sim.run_task(spec, seed=DEMO.seed)
+    assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + sim.task_controller.STAGES
     if res.success:  # the handled object at the hand-over spot
         assert np.linalg.norm(np.asarray(res.object_pos)[:2] - CFG.handover_xy) < CFG.place_tolerance_m + 1e-6
 

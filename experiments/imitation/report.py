@@ -73,8 +73,7 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
               "- Merging the detector's events before the final recognition was designed while looking at the quick "
               "preset's evaluation demonstrations (4 of them); its settings are not tuned on them."]
     if not metrics.get("robot_ran"):
-        lines += ["", "The robot step did not run: `sim.task_controller` (the robot's part of issue 21) is not in "
-                  "the tree or the run disabled it; `task_success_rate` is null."]
+        lines += ["", "The robot step did not run (`robot: false`); `task_success_rate` is null."]
     return "\n".join(lines)
 
 

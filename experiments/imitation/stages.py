@@ -156,15 +156,6 @@ def prepare(cfg: Config, settings) -> tuple[Models, dict, dict]:
 
 
 # ------------------------------------------------------------------------------------------ robot
-def robot_module():
-    """`sim.task_controller` if it is there (another part of issue 21), else None."""
-    try:
-        import sim.task_controller as tc
-    except ImportError:
-        return None
-    return tc if hasattr(tc, "run_task") and hasattr(tc, "TaskSpec") else None
-
-
 def scene_objects(demo: Demo) -> tuple[int, ...]:
     """The robot scene's objects (`sim.grasp_objects` classes) standing in for the video's binoculars,
     cup and pitcher (the manipulator scene's defaults, `sim.manipulator.DEFAULT_OBJECTS`); in a transfer
@@ -177,26 +168,22 @@ def scene_objects(demo: Demo) -> tuple[int, ...]:
     return tuple(objects)
 
 
-def task_spec(cfg: Config, demo: Demo, r: pl.Recognised, tc):
-    """The `tc.TaskSpec` of what was recognised: the recognised object among the scene's objects
+def task_spec(cfg: Config, demo: Demo, r: pl.Recognised) -> sim.TaskSpec:
+    """The `sim.TaskSpec` of what was recognised: the recognised object among the scene's objects
     (`scene_objects`), the recognised grasp (a pointing demonstration: the grasp class of the object's
     stand-in), the hand-over spot or the recognised place; the orientation: the controller's canonical
     one (the recognised orientation is relative to the camera and not turned into the world here)."""
     objects = scene_objects(demo)
     grasp = r.grasp if (r.kind == "transfer" and r.grasp in GRASP_CLASSES) else objects[r.target]
-    return tc.TaskSpec(objects=objects, object_xy=np.asarray(demo.objects_xy, float), target=int(r.target),
+    return sim.TaskSpec(objects=objects, object_xy=np.asarray(demo.objects_xy, float), target=int(r.target),
                        grasp=int(grasp), place_xy=np.asarray(r.place_xy, float), hand_rot=None, tactile=True,
                        hand=cfg.robot_hand)
 
 
 def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, render: bool = False):
     """The robot repeats what was recognised (`sim.task_controller.run_task`, MAP §III grasp strategy
-    through the mapping table) with the `task_spec`. Returns the `TaskResult`, or None without the
-    controller."""
-    tc = robot_module()
-    if tc is None:
-        return None
-    return tc.run_task(task_spec(cfg, demo, r, tc), seed=int(demo.seed % 1000), render=render)
+    through the mapping table) with the `task_spec`. Returns the `sim.TaskResult`."""
+    return sim.run_task(task_spec(cfg, demo, r), seed=int(demo.seed % 1000), render=render)
 
 
 # ------------------------------------------------------------------------------------------ per demo
@@ -292,7 +279,7 @@ def main(argv=None) -> dict:
     start = time.perf_counter()
     settings = cfg.video_settings()
     models, val_metrics, prep_times = prepare(cfg, settings)
-    robot_ran = cfg.robot and robot_module() is not None
+    robot_ran = cfg.robot
     demos = draw_demos(cfg.n_demos, cfg.seed, cfg.demonstrators, cfg.handover_xy)
     results = []
     for i, demo in enumerate(progress(demos, desc="demonstrations")):
@@ -306,7 +293,6 @@ def main(argv=None) -> dict:
     metrics.update(val_metrics)
     metrics["prepare_time_s"] = prep_times
     metrics["runtime_s"] = runtime
-    metrics["robot_available"] = robot_module() is not None
     path = side_by_side(run.file("side_by_side.mp4"), demos[0], results[0], settings)
     metrics["video"] = path.name
     run.write(metrics, report(cfg, settings, demos, results, metrics), flat=False)
