@@ -2,7 +2,18 @@
 
 One test file per hand so that `make test` (pytest-xdist, `--dist loadfile`) can give the two MJX
 compiles to its two workers. Not a test module itself (no `test_` prefix).
+
+Each test runs the check in a fresh process (`check_in_fresh_process`, `python -m
+tests.grasp_equivalence HAND [CLASS ...]`): at the end of a long pytest worker that has compiled
+hundreds of programs, jaxlib 0.10.2 crashed (SIGSEGV or SIGABRT, reproduced twice) while serialising
+the MJX chunk's executable for the persistent compilation cache (`put_executable_and_time`); a
+crash there killed the worker and hung pytest-xdist. The same check in a fresh process, or after
+either half of that worker's test files, passes.
 """
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 
 from sim.grasp_objects import GRASP_CLASSES
@@ -52,3 +63,21 @@ def check_native_and_mjx_jax_agree(hand: str, settle_anywhere: frozenset = froze
     np.testing.assert_allclose(native.object_end[held & ~anywhere], mjx_out.object_end[held & ~anywhere],
                                atol=END_TOLERANCE_M)
     np.testing.assert_allclose(native.lift_m[held], mjx_out.lift_m[held], atol=END_TOLERANCE_M)
+
+
+def check_in_fresh_process(hand: str, settle_anywhere: frozenset = frozenset()) -> None:
+    """`check_native_and_mjx_jax_agree(hand, settle_anywhere)` in a new Python process (see the module
+    docstring); its assertion message or crash is re-raised here as an AssertionError."""
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-m", "tests.grasp_equivalence", hand, *map(str, sorted(settle_anywhere))],
+                         cwd=root, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0 and "EQUIVALENT" in run.stdout, (
+        f"exit status {run.returncode}\n{run.stdout[-4000:]}\n{run.stderr[-6000:]}")
+
+
+if __name__ == "__main__":
+    from lfd_common import enable_compilation_cache
+
+    enable_compilation_cache()
+    check_native_and_mjx_jax_agree(sys.argv[1], frozenset(int(g) for g in sys.argv[2:]))
+    print("EQUIVALENT")
