@@ -188,11 +188,14 @@ def _json_tree(key: str, value: Any) -> Any:
 @dataclasses.dataclass
 class StageResult:
     """What one stage of an experiment returns: metrics (nested dicts allowed, units in the key
-    names), figures (file name -> matplotlib figure or (H, W, 3|4) image array) and a report section."""
+    names), figures (file name -> matplotlib figure or (H, W, 3|4) image array), a report section, and
+    files that are neither (file name -> a function that writes it at the path it is given, e.g. a
+    video, and returns the path written)."""
 
     metrics: dict = dataclasses.field(default_factory=dict)
     figures: dict = dataclasses.field(default_factory=dict)
     report: str = ""
+    files: dict = dataclasses.field(default_factory=dict)
 
 
 class RunOutput:
@@ -229,13 +232,17 @@ class RunOutput:
         return written
 
     def write_stages(self, results: Sequence[StageResult], header: str = "", **extra_metrics) -> dict[str, Any]:
-        """`write` for a run made of stages: their metrics merged (plus `extra_metrics`), their figures,
-        and the report `header` followed by every stage's section."""
+        """`write` for a run made of stages: their metrics merged (plus `extra_metrics`), their figures
+        and files, and the report `header` followed by every stage's section."""
         metrics: dict[str, Any] = {}
         figures: dict[str, Any] = {}
         for result in results:
             metrics.update(result.metrics)
             figures.update(result.figures)
+            for name, write in result.files.items():
+                target = self.file(name)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                write(target)
         metrics.update(extra_metrics)
         sections = [header] + [r.report for r in results if r.report]
         return self.write(metrics, "\n\n".join(s for s in sections if s), figures)

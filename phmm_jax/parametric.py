@@ -341,7 +341,7 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
     phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
     Defaults: a lattice point scores all sequences under one model (cheap), a step needs one model
     per sequence (dear); how close the defaults come to a dense scan plus a long refinement is
-    measured by `experiments.bench.bench_hmm` (`search_within_1_nat`).
+    measured by `experiments.bench.bench_hmm` (`recognition_at_max_rate`).
     Raises `ValueError` naming the argument for anything else: n_steps < 1, face_steps < 0,
     lattice_points < 1, a negative epsilon, models that are not PHMMs, and data (or an epsilon) so
     far from a model's means that the search would overflow the compute dtype.

@@ -122,10 +122,12 @@ def test_writer_flattens_nested_metrics(tmp_path):
     bench = run.write({"ratio": {"5400": 2.0}, "config": {"sizes": (1, 2)}}, filename="bench.json", flat=False)
     assert bench == json.loads((tmp_path / "run" / "bench.json").read_text()) == {
         "ratio": {"5400": 2.0}, "config": {"sizes": [1, 2]}}
-    stages = [StageResult({"a": {"x_s": 1.0}}, {}, "## one"), StageResult({"b_s": 2.0}, {"sub/img.png": np.ones((2, 2, 3))})]
+    stages = [StageResult({"a": {"x_s": 1.0}}, {}, "## one"), StageResult({"b_s": 2.0}, {"sub/img.png": np.ones((2, 2, 3))},
+                                                                           files={"v/clip.bin": lambda p: p.write_bytes(b"ab")})]
     assert run.write_stages(stages, "# header", total_s=3.0) == {"a_x_s": 1.0, "b_s": 2.0, "total_s": 3.0}
     assert (tmp_path / "run" / "report.md").read_text() == "# header\n\n## one\n"
     assert (tmp_path / "run" / "sub" / "img.png").exists()
+    assert (tmp_path / "run" / "v" / "clip.bin").read_bytes() == b"ab"   # a file stage writes where it is told
 
 
 def test_timing_helper():

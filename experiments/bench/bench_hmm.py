@@ -207,7 +207,7 @@ def em_recognition_stage(cfg: BenchConfig, hmm, hmm_cfg, X_np) -> dict:
           f"{np.median(gap):.3f}, 90th percentile {np.percentile(gap, 90):.2f}, max {gap.max():.1f} nats")
     return {"em_iteration_s": em.median_s, "em_iteration_compile_s": em.first_s - em.median_s,
             "recognition_ms_per_seq": recognition_ms, "recognition_accuracy_pointing": accuracy,
-            "search_within_1_nat": float(np.mean(gap <= 1)), "search_gap_median": float(np.median(gap)),
+            "recognition_at_max_rate": float(np.mean(gap <= 1)), "search_gap_median": float(np.median(gap)),
             "search_gap_p90": float(np.percentile(gap, 90)), "search_gap_max": float(gap.max())}
 
 
@@ -276,7 +276,7 @@ def report(cfg: BenchConfig, results: dict, table: Table) -> str:
         f"EM iteration on {cfg.em_sequences} sequences: {results['em_iteration_s']:.3f} s. Recognition: "
         f"{results['recognition_ms_per_seq']:.2f} ms per sequence (batch {cfg.recognition_batch}, 2 PHMMs of a "
         f"2x2 grid); within 1 nat of a dense search (21^d lattice, 30 + 10 steps) in "
-        f"{results['search_within_1_nat']:.1%} of sequence-PHMM pairs (median gap {results['search_gap_median']:.3f}, "
+        f"{results['recognition_at_max_rate']:.1%} of sequence-PHMM pairs (median gap {results['search_gap_median']:.3f}, "
         f"max {results['search_gap_max']:.1f} nats).",
     ])
 
