@@ -6,7 +6,8 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell sha1sum pyproject.toml | cut -c1-12)
 # Two workers, whole test files each (the suite is compile-bound: one XLA compile per worker at a time,
-# so two workers on two cores take about 60 % of the serial time). Caches are written atomically.
+# so two workers on two cores take about 60 % of the serial time). The pytest processes use no
+# persistent compilation cache (tests/conftest.py says why); data caches are written atomically.
 # A crashed worker ends the run (no restart): a replaced worker can leave pytest-xdist waiting forever.
 PYTEST_ARGS ?= -n 2 --dist loadfile --max-worker-restart=0
 DEMO_ARGS ?= --preset quick

@@ -8,7 +8,8 @@ tests.grasp_equivalence HAND [CLASS ...]`): at the end of a long pytest worker t
 hundreds of programs, jaxlib 0.10.2 crashed (SIGSEGV or SIGABRT, reproduced twice) while serialising
 the MJX chunk's executable for the persistent compilation cache (`put_executable_and_time`); a
 crash there killed the worker and hung pytest-xdist. The same check in a fresh process, or after
-either half of that worker's test files, passes.
+either half of that worker's test files, passes. (The pytest processes now use no persistent cache
+at all, tests/conftest.py; this process keeps it, so the MJX compile is shared with later runs.)
 """
 import subprocess
 import sys

@@ -13,7 +13,7 @@ import crf_jax
 from crf_jax import chain, inference, train
 
 K, T = 3, 5
-# jitted once per shape (and persistently cached): eager op-by-op dispatch would dominate the test time
+# jitted once per shape: eager op-by-op dispatch would dominate the test time
 LOG_Z = jax.jit(inference.log_partition, static_argnames="method")
 MARGINALS = jax.jit(inference.marginals)
 VITERBI = jax.jit(inference.viterbi)

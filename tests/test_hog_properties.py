@@ -1,8 +1,8 @@
 """hog_jax's promises as properties (issue 17): valid input -> finite, correctly shaped output;
 invalid input -> ValueError naming the argument.
 
-Shapes are fixed and only values are drawn, so every jitted function compiles once per module run
-(and comes from the persistent cache after that); a handful of examples per property.
+Shapes are fixed and only values are drawn, so every jitted function compiles once per module run;
+a handful of examples per property.
 """
 import functools
 import warnings
