@@ -32,11 +32,15 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    manipulator scene in the grasp scene's layout (`sim.robot_hands.SceneLayout`), and
    `sim.grasp_rollout.peak_touch` reads them per control period exactly as in the grasp study.
 4. Carry the palm horizontally (at the lift height, the orientation kept) until the object is above
-   the place; turn the hand about the object's centre so that the held object stands upright (its
-   axis as measured, a tilt in the grasp of up to `MAX_STRAIGHTEN_DEG`, turned to the vertical; a
-   larger tilt means the object pivots in the grasp and turning the hand would drop it); lower it
-   until the object (or a finger) touches the table; open the fingers to the open preshape; retract
-   along the approach direction and up.
+   the place, the fingers' targets `GRIP_MARGIN` past the positions at which they hold it (a lighter
+   grip than the grasp controller's); turn the hand about the object's centre so that the held object
+   stands upright (its axis as measured, a tilt in the grasp of up to `MAX_STRAIGHTEN_DEG`, turned to
+   the vertical; a larger tilt means the object pivots in the grasp and turning the hand would drop
+   it); lower it at `LOWER_SPEED_M_S`, the last `TOUCH_M` above its standing height at
+   `TOUCH_SPEED_M_S`, until the object (or a finger) touches the table; let the grip fade (the
+   fingers' targets to their measured positions over `RELEASE_S`), open the fingers to the open
+   preshape; retract along the approach direction and up (volar grasps first centre the palm on the
+   object sideways, so that the open fingers clear it).
 
 Every palm pose becomes arm joint targets by tracking IK: one damped-least-squares solve per control
 step (`solve_ik`, one start, warm-started at the last target), sent to the arm's position servos;
@@ -75,7 +79,8 @@ from sim.grasp_strategy import CONTROL_DT_S, DONE, HORIZON_S, LIFT, initial_stat
 from sim.manipulator import HOME_Q
 from sim.manipulator_ik import forward_kinematics
 from sim.robot_hands import HAND_NAMES
-from sim.task_motion import TaskSim, held_links, hold, min_jerk, move, object_tilt, tilt_correction, upright_axis
+from sim.task_motion import (TaskSim, held_links, hold, min_jerk, move, object_tilt, ramp_fingers, tilt_correction,
+                              upright_axis)
 from sim.task_plan import (ABOVE_M, RETRACT_M, RETRACT_UP_M, TaskSpec, check_spec, grasp_controller, on_table,
                            reachable_plan, task_scene)
 
@@ -87,10 +92,12 @@ UPRIGHT_TOL_DEG = 20.0
 MOVE_SPEED_M_S = 0.3         # mean palm speed of the free approach and of the retract (min-jerk timing)
 CARRY_SPEED_M_S = 0.15       # mean palm speed while carrying
 LOWER_SPEED_M_S = 0.05       # palm speed while lowering onto the table
-OPEN_S, SETTLE_S = 0.6, 0.3
+TOUCH_M, TOUCH_SPEED_M_S = 0.02, 0.01  # ... and while the object is within TOUCH_M of standing on it
+RELEASE_S, OPEN_S, SETTLE_S = 0.3, 0.6, 0.3
 MAX_STRAIGHTEN_DEG = 25.0    # a larger tilt in the grasp means the object pivots there: not turned
 STRAIGHTEN_S = 0.4           # turning the held object upright above the place
 CLEAR_M = 0.15               # the palm first rises this far from home (its fingers point down at the table)
+GRIP_MARGIN = 0.2            # rad: carry and place with the fingers' targets this far past where they hold
 APPROACH_TOL_M = 0.02        # the palm within this of the pre-grasp pose after the approach
 
 
@@ -216,7 +223,10 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
 
         # 3. carry above the place, at the lift height, the orientation kept
         next_stage("carry")
-        fingers = closed
+        # a full-force grip (targets at the closed preshape) squeezes a pinched disc or ball slowly out of
+        # the fingertips (10-25 N on 0.1 kg; it tilted 10 degrees in 3 s, then jumped out)
+        hand_q = sim.hand_q()
+        fingers = hand_q + np.clip(closed - hand_q, -GRIP_MARGIN, GRIP_MARGIN)
         cmd = np.asarray(state.cmd[0], float)
         goal = cmd + np.append(spec.place_xy - sim.obj_pos()[:2], 0.0)
         move(sim, np.stack([cmd, goal]), plan.rot, plan.rot, fingers, CARRY_SPEED_M_S)
@@ -239,23 +249,30 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
             goal, rot = straight, fix @ rot
             hold(sim, goal, rot, fingers, SETTLE_S)
 
-        # 4. lower until the object touches the table, open, retract
+        # 4. lower until the object touches the table, the last TOUCH_M slowly; release; open; retract
         next_stage("place")
         pos = goal.copy()
-        max_steps = int(np.ceil((sim.obj_pos()[2] - centre[2] + 0.03) / (LOWER_SPEED_M_S * CONTROL_DT_S)))
-        for _ in range(max_steps):
-            if sim.touches([scene.table_geom]) or sim.contact(scene.hand_geoms, [scene.table_geom]):
-                break
-            pos = pos - [0.0, 0.0, LOWER_SPEED_M_S * CONTROL_DT_S]
+        lowest = pos[2] - (sim.obj_pos()[2] - centre[2]) - 0.03
+        while pos[2] > lowest and not (sim.touches([scene.table_geom])
+                                       or sim.contact(scene.hand_geoms, [scene.table_geom])):
+            # a thin tall object met at 5 cm/s bounces on its base edge and topples once released
+            near = sim.obj_pos()[2] - centre[2] < TOUCH_M
+            pos = pos - [0.0, 0.0, (TOUCH_SPEED_M_S if near else LOWER_SPEED_M_S) * CONTROL_DT_S]
             sim.step(pos, rot, fingers)
-        pos = sim.palm()
-        n_open = int(round(OPEN_S / CONTROL_DT_S))
-        for s in np.linspace(0.0, 1.0, n_open + 1)[1:]:
-            sim.step(pos, rot, closed + s * (open_ - closed))
+        # the grip fades to the fingers' measured positions (an abrupt release kicks the object off its
+        # base), then they open from there
+        pos, release = sim.palm(), sim.hand_q()
+        ramp_fingers(sim, pos, rot, fingers, release, RELEASE_S)
+        ramp_fingers(sim, pos, rot, release, open_, OPEN_S)
         hold(sim, pos, rot, open_, SETTLE_S / 2)
         a = params.approach[0].astype(float)
-        back = pos - RETRACT_M * a
-        move(sim, np.stack([pos, back, back + [0.0, 0.0, RETRACT_UP_M]]), rot, rot, open_,
+        # volar grasps: first centre the palm on the object sideways (horizontal, across the approach);
+        # 1 cm off centre, the open Barrett thumb rubbed along the bottle and dragged it 2 cm back
+        off = sim.obj_pos() - pos
+        off = (off - (off @ a) * a) * [1.0, 1.0, 0.0]
+        centred = pos + (off if bool(params.volar[0]) else 0.0)
+        back = centred - RETRACT_M * a
+        move(sim, np.stack([pos, centred, back, back + [0.0, 0.0, RETRACT_UP_M]]), rot, rot, open_,
               MOVE_SPEED_M_S / 2)
         hold(sim, back + [0.0, 0.0, RETRACT_UP_M], rot, open_, SETTLE_S)
         return finish("")

@@ -77,6 +77,10 @@ class TaskSim:
     def palm(self) -> np.ndarray:
         return self.data.site_xpos[self.scene.arm.palm_site].copy()
 
+    def hand_q(self) -> np.ndarray:
+        """(D,) the hand's actuated joint positions now."""
+        return self.data.actuator_length[self.scene.arm.hand_ctrl].copy()
+
     def obj_pos(self) -> np.ndarray:
         return self.data.xpos[self.scene.arm.object_body[self.target]].copy()
 
@@ -155,6 +159,12 @@ def tilt_correction(axis: np.ndarray) -> np.ndarray:
 def hold(sim: TaskSim, pos, rot, fingers, seconds: float):
     for _ in range(int(round(seconds / CONTROL_DT_S))):
         sim.step(pos, rot, fingers)
+
+
+def ramp_fingers(sim: TaskSim, pos, rot, start: np.ndarray, end: np.ndarray, seconds: float):
+    """The hand's targets linearly from start (D,) to end (D,) over `seconds`, the palm held at (pos, rot)."""
+    for s in np.linspace(0.0, 1.0, int(round(seconds / CONTROL_DT_S)) + 1)[1:]:
+        sim.step(pos, rot, start + s * (end - start))
 
 
 def held_links(sensordata: np.ndarray, sensors: SceneLayout, target: int) -> int:
