@@ -56,7 +56,7 @@ def demo_stage(cfg) -> StageResult:
         f"{settings.width} x {settings.height}, {settings.fps:g} fps, through the video front end, the online PHMMs "
         "(BMVC 2008 §5.4), the grasp recogniser (GRASP §III) and the robot's task (MAP §III), with the models of "
         "`experiments.imitation`'s quick preset. The left view of the person beside the robot: "
-        f"[{VIDEO}]({VIDEO}).", "",
+        f"[{VIDEO}]({VIDEO}) (a GIF of the same name where OpenCV cannot write MP4).", "",
         markdown_table(["", "demonstrated", "recognised / done"], rows), "",
         f"Time: {elapsed:.0f} s (models included)."])
     return StageResult(metrics, {}, report,
