@@ -27,10 +27,15 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
    `merge_damping` per frame (it most likely stops there), and after `n_hidden` frames it is lost;
 5. acquire: once a frame has had `min_init` blobs, every target not tracked (never acquired, lost with
    `reacquire`, or concealed) takes, in target order, a blob no observed target took: a never-acquired
-   target by its `init` rule ("top" highest centroid, "bottom", "left", "right", "largest"), the others
-   the nearest to their last position (a concealed one only within twice its gate). Skin: init ("top", "left", "right") makes target 0 the face
-   (the highest skin blob), target 1 the blob furthest left in the image (the right hand of a person
-   facing the camera) and target 2 the other hand, so that a free skin blob is always some target's.
+   target by its `init` rule ("top" highest centroid, "bottom", "left", "right", "largest";
+   "left_of_first" / "right_of_first": the leftmost / rightmost of the blobs on that side of target
+   0's position, none while target 0 is not tracked), the others the nearest to their last position (a
+   concealed one only within twice its gate). Skin: init ("top", "left_of_first", "right_of_first")
+   makes target 0 the face (the highest skin blob), target 1 the blob furthest left in the image and
+   left of the face (the right hand of a person facing the camera) and target 2 the furthest right of
+   the face (the other hand). The side matters where the right hand is out of view when tracking
+   starts (below the table) and the other arm shows as two blobs (hand and bare forearm): "left" would
+   take the forearm, and the right hand, once it appears, would find every target taken.
 
 Gains: `alpha_beta_gains(tracking_index)` gives Kalata's steady-state optimal α, β for the tracking
 index Λ = σ_a dt^2 / σ_z (acceleration and measurement noise; P. R. Kalata, "The tracking index: a
@@ -56,7 +61,8 @@ from lfd_common import as_array, check_choice, check_int, check_real
 
 __all__ = ["INIT_RULES", "TrackState", "Tracks", "alpha_beta_gains", "track"]
 
-INIT_RULES = ("top", "bottom", "left", "right", "largest")
+INIT_RULES = ("top", "bottom", "left", "right", "largest", "left_of_first", "right_of_first")
+_SIDE_RULES = INIT_RULES[5:]  # relative to target 0: not target 0's own rule
 _REFINE_STEPS = 3  # fixed-point steps of a merged target's position per frame
 _RIM_PX = 2.0  # a sharer's ellipse, grown by this many pixels, explains its blob's rim (an ellipse is only a model)
 
@@ -219,14 +225,22 @@ def _step(opts: _Options, state: TrackState, frame):
     # acquisition of untracked targets from blobs no tracked target took
     started = state.started | (jnp.sum(valid) >= opts.min_init)
     free = valid & ~jnp.any(observed[:, None] & (j[:, None] == jnp.arange(K)[None]), axis=0)
-    by_rule = jnp.stack([blob_centroid[:, 1], -blob_centroid[:, 1], blob_centroid[:, 0], -blob_centroid[:, 0],
-                         -blob_area])  # INIT_RULES order
+    x = blob_centroid[:, 0]
     fresh, k = [], []
     for m in range(M):  # in priority order; only scalars per target, so the unrolled loop stays small
         dist = jnp.sum((blob_centroid - state.position[m]) ** 2, axis=-1)
+        if m:  # target 0's position after this frame's acquisition: the side rules' reference
+            first_x = jnp.where(fresh[0], jnp.sum(jnp.where(jnp.arange(K) == k[0], x, 0.0)), position[0, 0])
+            first_there = tracked[0] | fresh[0]
+        else:
+            first_x, first_there = jnp.float32(0.0), jnp.asarray(False)
+        by_rule = jnp.stack([blob_centroid[:, 1], -blob_centroid[:, 1], x, -x, -blob_area,
+                             jnp.where(first_there & (x < first_x), x, jnp.inf),
+                             jnp.where(first_there & (x > first_x), -x, jnp.inf)])  # INIT_RULES order
         rule = jnp.sum(jnp.where((jnp.arange(len(INIT_RULES)) == opts.rules[m])[:, None], by_rule, 0.0), axis=0)
         # a concealed target takes a free blob only near it (twice its gate): the hand leaving the face
         allowed = free & (~concealed[m] | (nearest[m] <= 4.0 * opts.gate2))
+        allowed = allowed & (state.acquired[m] | jnp.isfinite(rule))
         score = jnp.where(allowed, jnp.where(state.acquired[m], dist, rule), jnp.inf)
         k.append(jnp.argmin(score))
         seeking = (~tracked[m] & (~state.acquired[m] | opts.reacquire)) | concealed[m]
@@ -281,7 +295,7 @@ def _check_blobs(blobs: Blobs) -> tuple[int, ...]:
     return lead
 
 
-def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left", "right"), *, alpha: float = 0.75, beta: float = 0.5,
+def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"), *, alpha: float = 0.75, beta: float = 0.5,
           dt: float = 1.0, gate: float = 2.0, n_lost: int = 5, n_hidden: int = 50, min_init: int | None = None,
           reacquire: bool = True, cov_floor: float = 1.0, min_evidence: float = 0.1,
           merge_damping: float = 0.5) -> Tracks:
@@ -303,6 +317,8 @@ def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left", "right"), *, alp
     if not init:
         raise ValueError("init: expected one rule per target, got none")
     rules = [INIT_RULES.index(check_choice(r, f"init[{i}]", INIT_RULES)) for i, r in enumerate(init)]
+    if init[0] in _SIDE_RULES:
+        raise ValueError(f"init[0]: {init[0]!r} is relative to target 0 itself; give target 0 one of {INIT_RULES[:5]}")
     alpha = check_real(alpha, "alpha", min_value=0.0, max_value=1.0, exclusive_min=True)
     beta = check_real(beta, "beta", min_value=0.0, exclusive_min=True)
     if beta >= 4.0 - 2.0 * alpha:

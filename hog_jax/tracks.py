@@ -83,7 +83,7 @@ def _combine(camera: StereoCamera, left: Tracks, right: Tracks, max_row_diff: fl
 def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"],
                         right: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"], camera: StereoCamera, *,
                         skin_label: int = 2, object_label: int = 3, n_objects: int = 2,
-                        init: tuple[str, ...] = ("top", "left", "right"), max_blobs: int = 8, min_area: int = 4,
+                        init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"), max_blobs: int = 8, min_area: int = 4,
                         max_row_diff_px: float | None = None, alpha: float = 0.75, beta: float = 0.5,
                         dt: float = 1.0, gate: float = 2.0, n_lost: int = 5, n_hidden: int = 50,
                         min_init: int = 2) -> HandFacePositions:
@@ -93,7 +93,8 @@ def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W
     0 background, 1 person, 2 skin, 3 object, or any labelling with `skin_label` and `object_label`),
     or boolean skin masks (then no object is tracked). camera: the rectified pair (its image size must
     be H x W). init: the skin targets' acquisition rules (`track`; default: the face the highest skin
-    blob, the hand the leftmost other one, and the other hand, so that it is never taken for the hand),
+    blob, the hand the leftmost blob left of the face, and the other hand the rightmost right of it, so
+    that neither a piece of the other arm nor the other hand is taken for the hand),
     from the first frame with `min_init` skin blobs (2: face and hand; 3 where both hands are in view
     once the person is there, so that a frame showing the face and only the other hand does not
     start the hand's track on it). max_blobs,

@@ -93,7 +93,11 @@ class VideoOptions(NamedTuple):
     many frames before `start` teach the person and background GMMs; skin_match_quantile in (0, 1):
     the skin model's match threshold (module docstring). The level sets re-seed a region where its score
     beats every other by 3 nats (`LevelSetOptions.reseed_margin`): a hand hidden in one frame comes
-    back in the next."""
+    back in the next. coarse_scale: TR §5's coarse scale (a quarter of each side) before the fine one on
+    frames from 240 x 320 up (`_coarse`); False: the fine scale alone. At a quarter of 240 x 320 a
+    hand held out from the body is 2-3 pixels wide, averaged with the sleeve into "person", and the
+    fine scale, started from there, keeps it person where skin beats person by less than the re-seed
+    margin (issue 21: a pointing hand was skin in 8 of 25 frames with it, 18 without)."""
 
     motion_penalty: float = 4.0
     object_margin: float = 0.0
@@ -102,6 +106,7 @@ class VideoOptions(NamedTuple):
     skin_match_quantile: float = 0.1
     background: BackgroundOptions = BackgroundOptions()
     levelset: LevelSetOptions = LevelSetOptions(reseed_margin=3.0)
+    coarse_scale: bool = True
 
 
 class VideoSegmentation(NamedTuple):
@@ -324,7 +329,9 @@ def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], 
     start = _check_start(start, arr.shape[-4], 0)
     margins = _checked_margins(options)
     shape = tuple(arr.shape[-3:-1])
-    structure = LevelSetStructure(len(REGIONS), shape, _coarse(shape))
+    if not isinstance(options.coarse_scale, (bool, np.bool_)):
+        raise ValueError(f"coarse_scale: expected a bool, got {options.coarse_scale!r}")
+    structure = LevelSetStructure(len(REGIONS), shape, _coarse(shape) if options.coarse_scale else None)
     x = jnp.asarray(arr if batched else arr[None])
     out = _segment_jit(structure, models, x, start, margins, _checked_follow(options),
                        check_background_options(options.background),

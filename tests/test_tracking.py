@@ -348,3 +348,22 @@ def test_bad_inputs_name_the_argument(case):
     call, name = case
     with pytest.raises(ValueError, match=name):
         call()
+
+
+def test_side_rules_wait_for_the_hand_on_the_face_s_left():
+    """The other arm shows as two blobs right of the face while the right hand is out of view: "left"
+    takes a piece of that arm and the hand finds every target taken when it appears; "left_of_first"
+    waits for a blob left of target 0 and takes the hand (the imitation loop's lost 3-D hand)."""
+    masks = np.zeros((4, T, H, W), bool)
+    hand = np.stack([22 - 0.5 * t, 36 - 0.5 * t], -1)
+    for i in range(T):
+        masks[:, i] = disc([32, 8], 4) | disc([44, 36], 3) | disc([54, 30], 3) | (disc(hand[i], 3) if i >= 8 else False)
+    blobs = connected_blobs(masks, max_blobs=K)
+    by_side = host(track(blobs, ("top", "left_of_first", "right_of_first"), alpha=ALPHA, beta=BETA, min_init=3))
+    leftmost = host(track(blobs, ("top", "left", "right"), alpha=ALPHA, beta=BETA, min_init=3))
+    assert by_side.lost[0, :8, 1].all() and not by_side.lost[0, 8:, 1].any()
+    np.testing.assert_allclose(by_side.position[0, 12:, 1], hand[12:], atol=1.0)
+    assert not by_side.lost[0, :, 2].any() and (by_side.position[0, :, 2, 0] > 32).all()
+    assert np.linalg.norm(leftmost.position[0, 12:, 1] - hand[12:], axis=-1).min() > 10  # the failure it fixes
+    with pytest.raises(ValueError, match=r"init\[0\]"):
+        track(blobs, ("left_of_first", "top"))

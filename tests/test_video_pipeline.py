@@ -158,6 +158,8 @@ def test_region_scores_and_bad_input(fitted):
         hog_jax.segment_recording(models, frames, T)
     with pytest.raises(ValueError, match="follow_light"):
         hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(follow_light=1))
+    with pytest.raises(ValueError, match="coarse_scale"):
+        hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(coarse_scale="no"))
     with pytest.raises(ValueError, match="foreground"):
         hog_jax.region_scores(models, frames, fg[:-1])
     with pytest.raises(ValueError, match="right"):

@@ -33,7 +33,7 @@ from experiments.video_segmentation.plots import truth_coded
 from hog_jax import FACE, HAND
 from lfd_common import check_int, check_real, enable_compilation_cache
 
-SKIN_TARGETS = ("top", "left", "right")  # face, hand, other hand: hog_jax.hand_face_positions' default rules
+SKIN_TARGETS = ("top", "left_of_first", "right_of_first")  # face, hand, other hand: hog_jax.hand_face_positions' default rules
 MARKED = {FACE: ("face", LABEL_COLOURS[6]), HAND: ("hand", LABEL_COLOURS[5])}
 SHEET_FRAMES = 8
 DEFAULT_FPS = 25.0

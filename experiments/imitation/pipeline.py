@@ -66,7 +66,8 @@ def _track_path(cfg: Config, settings, demo: Demo):
     from experiments.lfd_demonstration.clips import _source_digest
 
     blob = json.dumps({"video": _cache_path(settings, demo).name, "pad": cfg.pad_frames, "seed": cfg.seed,
-                       "skin": [cfg.n_persons, cfg.n_skin_persons], "code": _source_digest()}, sort_keys=True)
+                       "skin": [cfg.n_persons, cfg.n_skin_persons], "coarse": cfg.coarse_scale,
+                       "code": _source_digest()}, sort_keys=True)
     return cache_dir("imitation_tracks") / f"track_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
 
 
@@ -80,7 +81,7 @@ def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> 
         with np.load(path) as z:
             return Tracked(z["diff"], z["found"], z["hand_rc"], int(z["start"]))
     _, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + demo.seed % 100_000),
-                                    cfg.pad_frames)
+                                    cfg.pad_frames, cfg.coarse_scale)
     hand_l, _, _ = hand_tracks(positions, start)
     found = np.asarray(positions.found_3d, bool).copy()
     found[:start] = False

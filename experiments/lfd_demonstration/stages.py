@@ -28,10 +28,10 @@ from hog_jax.tracks import HAND
 from hog_jax.video import PERSON, SKIN, VideoOptions, fit_video_models, segment_stereo
 from lfd_common import enable_compilation_cache
 
-def front_end(rec, rgb_skin, settings, key, pad_frames: int):
+def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool = True):
     """The video front end of issue 18 on one recording: (labels of the left view (T, H, W),
-    `HandFacePositions`, segmentation start)."""
-    options = VideoOptions(background=background_options(settings))
+    `HandFacePositions`, segmentation start). coarse_scale: `VideoOptions.coarse_scale`."""
+    options = VideoOptions(background=background_options(settings), coarse_scale=coarse_scale)
     start = segmentation_start(settings)
     left, right, T = _pad(rec, pad_frames)
     models, _ = fit_video_models(key, rgb_skin, left, start, options)
