@@ -18,8 +18,8 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    (`TaskResult.yaw_deg`: the imitation as close as the arm allows); none -> the result fails at
    "ik_unreachable" without simulating (so does a place off the table).
 2. Approach: the palm rises `CLEAR_M` from home (whose fingers point down at the table), then
-   follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised reach retargeted
-   to the arm), else a straight line, to `ABOVE_M` above the pre-grasp pose, at `MOVE_SPEED_M_S` (arc
+   follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised reach, retargeted
+   to the arm by `retarget_path`), else a straight line, to `ABOVE_M` above the pre-grasp pose, at `MOVE_SPEED_M_S` (arc
    length, min-jerk timing), the orientation slerped from home to the grasp's; then it descends onto
    the pre-grasp pose (the open fingers clear the object). The path is not checked for collisions
    (a joint-space move from home to the checked configuration above the pre-grasp was tried and was
@@ -79,8 +79,8 @@ from sim.grasp_strategy import CONTROL_DT_S, DONE, HORIZON_S, LIFT, initial_stat
 from sim.manipulator import HOME_Q
 from sim.manipulator_ik import forward_kinematics
 from sim.robot_hands import HAND_NAMES
-from sim.task_motion import (TaskSim, held_links, hold, min_jerk, move, object_tilt, ramp_fingers, tilt_correction,
-                              upright_axis)
+from sim.task_motion import (TaskSim, held_links, hold, min_jerk, move, object_tilt, ramp_fingers, retarget_path,
+                              tilt_correction, upright_axis)
 from sim.task_plan import (ABOVE_M, RETRACT_M, RETRACT_UP_M, TaskSpec, check_spec, grasp_controller, on_table,
                            reachable_plan, task_scene)
 
@@ -133,8 +133,9 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
              camera: str = "front", width: int = 320, height: int = 240, fps: float = 20.0) -> TaskResult:
     """Run one pick-and-place task on the native MuJoCo backend (CPU); see the module docstring.
 
-    approach_path (T, 3): palm positions (world m) to follow from the home pose towards the pre-grasp
-    pose (None: a straight line); seed: the grasp plan's hand-pose noise (`plan_trials`); mapping: the
+    approach_path (T, 3): a demonstrated reach (world m) whose shape the palm follows from the home
+    pose to above the pre-grasp pose (`sim.task_motion.retarget_path` moves it onto those two; None:
+    a straight line); seed: the grasp plan's hand-pose noise (`plan_trials`); mapping: the
     human-to-robot grasp mapping ("map2009" or "iros2008"); render: record frames of `camera` (a camera
     of the manipulator scene) at `width` x `height` and `fps` frames per simulated second (EGL by
     default, `sim.setup_rendering`). ValueError naming the argument for bad input; a place the arm
@@ -192,7 +193,8 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
         pre = params.start[0].astype(float)
         above = pre + [0.0, 0.0, ABOVE_M]
         clear = home_pos + [0.0, 0.0, CLEAR_M]
-        points = np.concatenate([home_pos[None], clear[None]] + ([path] if path is not None else [])
+        points = np.concatenate([home_pos[None], clear[None]]
+                                + ([retarget_path(path, clear, above)[1:-1]] if path is not None else [])
                                 + [above[None]])
         move(sim, points, home_rot, plan.rot, open_, MOVE_SPEED_M_S)
         move(sim, np.stack([above, pre]), plan.rot, plan.rot, open_, MOVE_SPEED_M_S / 2)

@@ -123,6 +123,24 @@ def _polyline(points: np.ndarray, speed: float) -> np.ndarray:
     return np.stack([np.interp(s, arc, points[:, i]) for i in range(3)], -1)
 
 
+def retarget_path(path: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """A demonstrated movement (T, 3) (world m, e.g. a PHMM-synthesised reach) moved onto the robot's
+    own start and end (3,) -> (T, 3): turned about the vertical so that its horizontal chord points
+    along the robot's, shifted to `start`, and what is then left between its end and `end` spread over
+    it in proportion to arc length. The vertical profile (the lift over the table) and the sideways
+    bulge relative to the chord are kept; the endpoints are the robot's exactly."""
+    path = np.asarray(path, np.float64)
+    start, end = np.asarray(start, np.float64), np.asarray(end, np.float64)
+    rel = path - path[0]
+    heading = lambda v: np.arctan2(v[1], v[0]) if np.hypot(v[0], v[1]) > 1e-6 else 0.0
+    turn = heading(end - start) - heading(rel[-1])
+    c, s = np.cos(turn), np.sin(turn)
+    turned = rel @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    frac = arc / arc[-1] if arc[-1] > 1e-9 else np.linspace(0.0, 1.0, len(path))
+    return start + turned + frac[:, None] * (end - start - turned[-1])
+
+
 def move(sim: TaskSim, points: np.ndarray, rot_from: np.ndarray, rot_to: np.ndarray, fingers, speed: float):
     path = _polyline(points, speed)
     slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([rot_from, rot_to])))

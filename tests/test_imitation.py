@@ -34,11 +34,11 @@ def loop():
     tracked = pl.track(CFG, settings, DEMO, rec, rgb_skin)
     online = pl.recognizer(phmms, SIGMA_M, THRESHOLD_M, CFG.online_window)
     return rec, tracked, pl.recognise_demo(online, tracked, OFFSET_M, CFG.median_frames, DEMO.objects_xy,
-                                           CFG.handover_xy)
+                                           CFG.handover_xy), phmms
 
 
 def test_scripted_pointing_demonstration(loop):
-    rec, tracked, r = loop
+    rec, tracked, r, _ = loop
     assert tracked.found.sum() >= 5                      # the front end followed the hand
     assert r.kind == "point"                             # the action
     assert r.target == DEMO.target                       # the object pointed at
@@ -47,11 +47,13 @@ def test_scripted_pointing_demonstration(loop):
 
 
 def test_robot_fetches_the_recognised_object(loop):
-    _, _, r = loop
+    _, _, r, phmms = loop
     spec = st.task_spec(CFG, DEMO, r)  # the script's object, its stand-in's grasp, to the hand-over spot
     assert spec.target == DEMO.target and spec.grasp == spec.objects[DEMO.target]
     assert np.allclose(spec.object_xy, DEMO.objects_xy) and np.allclose(spec.place_xy, CFG.handover_xy)
-    res = sim.run_task(spec, seed=DEMO.seed)
+    reach = pl.synthesised_reach(phmms[1], spec.object_xy[spec.target])  # the approach's shape
+    assert reach.ndim == 2 and reach.shape[1] == 3 and len(reach) >= 10 and np.isfinite(reach).all()
+    res = st.robot_task(CFG, DEMO, r, phmms)
     assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + sim.task_controller.STAGES
     if res.success:  # the handled object at the hand-over spot
         assert np.linalg.norm(np.asarray(res.object_pos)[:2] - CFG.handover_xy) < CFG.place_tolerance_m + 1e-6
@@ -71,6 +73,8 @@ def test_bad_input_names_the_argument():
         Config(n_demos=0)
     with pytest.raises(ValueError, match="median_frames"):
         Config(median_frames=2)
+    with pytest.raises(ValueError, match="approach"):
+        Config(approach="teleport")
 
 
 def test_draws_are_deterministic_and_spread():

@@ -1,15 +1,18 @@
 """The robot task controller (`sim.task_controller`, issue 21): one pick-and-place that succeeds (Barrett
 hand, Large Diameter grasp of the bottle, checked independently from the final MuJoCo state), an
-unreachable place flagged without an exception, and bad input rejected naming the argument.
+unreachable place flagged without an exception, bad input rejected naming the argument, and the
+retargeting of a demonstrated approach (`retarget_path`) against its promises.
 
 Cost: one simulated task (about 14 s of simulated time, a few seconds of wall time after the shared
 compilations) and one IK-only plan; every test shares the scene through the module's caches."""
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings, strategies as st
 
 from sim import TaskResult, TaskSpec, run_task
 from sim.grasp_objects import GRASP_OBJECTS
 from sim.task_controller import PLACE_TOL_M, STAGES
+from sim.task_motion import retarget_path
 
 OBJECT_XY = [(0.0, -0.40)]
 PLACE = (0.20, -0.40)
@@ -82,3 +85,25 @@ def test_bad_input_raises_naming_the_argument(change, match):
 def test_bad_options_raise_naming_the_argument(kwargs, match):
     with pytest.raises(ValueError, match=match):
         run_task(TaskSpec(objects=(1,), object_xy=OBJECT_XY, place_xy=PLACE), **kwargs)
+
+
+_XYZ = st.floats(-1.0, 1.0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(_XYZ, _XYZ, _XYZ), min_size=2, max_size=8), st.tuples(_XYZ, _XYZ, _XYZ),
+       st.tuples(_XYZ, _XYZ, _XYZ), st.floats(-np.pi, np.pi))
+def test_retarget_path_ends_at_the_robot_s_poses_and_keeps_the_shape(points, start, end, turn):
+    """Endpoints exact; a demonstration turned about the vertical gives the same robot path; a straight
+    demonstration becomes the straight robot path at the same arc-length fractions (float64 NumPy)."""
+    path, start, end = np.array(points), np.array(start), np.array(end)
+    assume(np.linalg.norm(np.diff(path, axis=0), axis=1).sum() > 1e-3 and np.hypot(*(path[-1] - path[0])[:2]) > 1e-3)
+    out = retarget_path(path, start, end)
+    np.testing.assert_allclose(out[[0, -1]], [start, end], atol=1e-9)
+    c, s = np.cos(turn), np.sin(turn)
+    turned = path @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T
+    np.testing.assert_allclose(retarget_path(turned, start, end), out, atol=1e-9)
+    frac = np.sort(np.random.default_rng(len(points)).uniform(size=len(points)))
+    frac[0], frac[-1] = 0.0, 1.0
+    line = path[0] + frac[:, None] * (path[-1] - path[0])
+    np.testing.assert_allclose(retarget_path(line, start, end), start + frac[:, None] * (end - start), atol=1e-9)

@@ -37,6 +37,7 @@ class Config:
     # robot (sim.task_controller)
     robot: bool = True
     robot_hand: str = "barrett"
+    approach: str = "phmm"               # the arm's approach: the synthesised reach ("phmm") or a straight line
     place_tolerance_m: float = 0.05      # a task succeeds with the right object within this of the place, upright
 
     def __post_init__(self):
@@ -59,6 +60,8 @@ class Config:
         if not isinstance(self.handover_xy, tuple) or len(self.handover_xy) != 2:
             raise ValueError(f"handover_xy: expected (x, y), got {self.handover_xy!r}")
         check_real(self.place_tolerance_m, "place_tolerance_m", min_value=0.0, exclusive_min=True)
+        if self.approach not in ("phmm", "straight"):
+            raise ValueError(f"approach: expected 'phmm' or 'straight', got {self.approach!r}")
         for name in ("robot", "coarse_scale"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name}: expected a bool, got {getattr(self, name)!r}")

@@ -50,6 +50,11 @@ def phi_to_xy(phi: np.ndarray) -> np.ndarray:
     return _LO + np.asarray(phi) * (_HI - _LO)
 
 
+def xy_to_phi(xy: np.ndarray) -> np.ndarray:
+    """The inverse of `phi_to_xy`."""
+    return (np.asarray(xy, float) - _LO) / (_HI - _LO)
+
+
 # ------------------------------------------------------------------------------------------ tracking
 class Tracked(NamedTuple):
     """The front end's output for one recording: diff (T, 3) hand - face in world axes (m; 0 where not
@@ -254,6 +259,16 @@ def grasp_and_putdown(stream: np.ndarray, measured: np.ndarray, start: int, end:
     g = slowest(0.15, 0.55)
     p = slowest((g - start) / length + 0.15, 0.9)
     return g, p
+
+
+def synthesised_reach(transfer_phmm: P.PHMM, object_xy: np.ndarray, length: int = 100) -> np.ndarray:
+    """The reach of a person to an object at `object_xy` (2,) world m: the "transfer" PHMM's mean
+    movement for that target (Humanoids 2008 §III synthesis, `phmm_jax.synthesize`) up to its grasp
+    moment (`grasp_and_putdown` on the synthesised path), hand - face in world axes (L, 3) m. The
+    robot's approach follows its shape (`sim.task_motion.retarget_path`)."""
+    path = np.asarray(P.synthesize(transfer_phmm, xy_to_phi(object_xy), length), np.float64)
+    g, _ = grasp_and_putdown(path, np.ones(length, bool), 0, length - 1)
+    return path[: g + 1]
 
 
 def hand_crop(frame: np.ndarray, hand_rc: np.ndarray, skin, out_size: int):

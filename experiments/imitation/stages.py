@@ -20,7 +20,7 @@ from experiments.config import parse_config, progress
 from experiments.data import video
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
-from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
+from experiments.imitation.demonstrations import KINDS, Demo, demo_track, draw_demos, render_demo
 from lfd_common import cache_dir, enable_compilation_cache
 from sim.grasp_objects import GRASP_CLASSES
 
@@ -180,10 +180,15 @@ def task_spec(cfg: Config, demo: Demo, r: pl.Recognised) -> sim.TaskSpec:
                        hand=cfg.robot_hand)
 
 
-def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, render: bool = False):
+def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, phmms, render: bool = False):
     """The robot repeats what was recognised (`sim.task_controller.run_task`, MAP §III grasp strategy
-    through the mapping table) with the `task_spec`. Returns the `sim.TaskResult`."""
-    return sim.run_task(task_spec(cfg, demo, r), seed=int(demo.seed % 1000), render=render)
+    through the mapping table) with the `task_spec`, approaching along the synthesised reach to the
+    object (`pipeline.synthesised_reach` of the "transfer" PHMM; `cfg.approach`). Returns the
+    `sim.TaskResult`."""
+    spec = task_spec(cfg, demo, r)
+    path = (pl.synthesised_reach(phmms[KINDS.index("transfer")], spec.object_xy[spec.target])
+            if cfg.approach == "phmm" else None)
+    return sim.run_task(spec, approach_path=path, seed=int(demo.seed % 1000), render=render)
 
 
 # ------------------------------------------------------------------------------------------ per demo
@@ -221,7 +226,7 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     out["robot"] = None
     if robot and cfg.robot and r.kind is not None:
         t0 = time.perf_counter()
-        res = robot_task(cfg, demo, r, render=render_robot)
+        res = robot_task(cfg, demo, r, models.phmms, render=render_robot)
         times["robot_s"] = time.perf_counter() - t0
         if res is not None:
             out["robot"] = res
