@@ -44,7 +44,10 @@ def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, reg_covar
     weight = total(jnp.sum(gamma, axis=(0, 2)))  # (N,)
     starved = weight < _MIN_RESPONSIBILITY
     safe_weight = jnp.where(starved, 1.0, weight)
-    new_means = total(jnp.einsum("tnb,btd->nd", gamma, X)) / safe_weight[:, None]
+    # full float32 products: a GPU's default (TF32 inputs) left covariances asymmetric and, for a
+    # near-singular state, not positive definite (hmmlearn rejected one on an H200)
+    highest = jax.lax.Precision.HIGHEST
+    new_means = total(jnp.einsum("tnb,btd->nd", gamma, X, precision=highest)) / safe_weight[:, None]
     fallback_means = new_means if previous is None else previous.means
     means = jnp.where(starved[:, None], fallback_means, new_means)
     if not update_means:
@@ -52,9 +55,10 @@ def gaussian_m_step(config: HMMConfig, gamma, X, previous: HMM | None, reg_covar
     centred = X[:, :, None, :] - means  # (B, T, N, D)
     eye = jnp.eye(dim, dtype=X.dtype)
     if config.covariance_type == "full":
-        scatter = total(jnp.einsum("tnb,btnd,btne->nde", gamma, centred, centred))
+        scatter = total(jnp.einsum("tnb,btnd,btne->nde", gamma, centred, centred, precision=highest))
+        scatter = 0.5 * (scatter + jnp.swapaxes(scatter, -1, -2))
     else:
-        scatter = total(jnp.einsum("tnb,btnd->nd", gamma, centred * centred))[:, :, None] * eye
+        scatter = total(jnp.einsum("tnb,btnd->nd", gamma, centred * centred, precision=highest))[:, :, None] * eye
     covariances = scatter / safe_weight[:, None, None] + reg_covar * eye
     fallback_cov = jnp.broadcast_to(eye, covariances.shape) if previous is None else previous.covariances
     covariances = jnp.where(starved[:, None, None], fallback_cov, covariances)

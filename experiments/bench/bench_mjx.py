@@ -134,6 +134,7 @@ def backends_stage(cfg: BenchConfig, backends: list[str], steps_per_trial: int) 
     sp, ss = bench_trials(cfg.hand, cfg.serial_trials, cfg.seed)
     t = time_call(lambda: serial_rollout(cfg.hand, sp, ss), cfg.repeats, block=False)  # warm-up: controller compile
     results = {"serial": {"trials": cfg.serial_trials, "run_s": t.median_s, "compile_s": 0.0}}
+    print(f"  serial: {cfg.serial_trials} trials in {t.median_s:.2f} s", flush=True)
     params, start = bench_trials(cfg.hand, cfg.n_trials, cfg.seed)
     for backend in backends:
         n = cfg.n_trials if backend != "mjx-jax" else cfg.mjx_trials
@@ -143,6 +144,7 @@ def backends_stage(cfg: BenchConfig, backends: list[str], steps_per_trial: int) 
         t = time_call(lambda: rollout_grasps(cfg.hand, p, s, backend=backend, nthread=cfg.nthread), cfg.repeats,
                       block=False)
         results[backend] = {"trials": n, "run_s": t.median_s, "compile_s": t.compile_s}
+        print(f"  {backend}: {n} trials in {t.median_s:.2f} s (compile and first call {t.compile_s:.1f} s)", flush=True)
     results["native"]["controller_s"] = controller_only(cfg.hand, params)
     for r in results.values():
         r["trials_per_s"] = r["trials"] / r["run_s"]

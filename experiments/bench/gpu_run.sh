@@ -76,9 +76,10 @@ declare -A MINIMUM=([lsh100k]=110)
 declare -A MODULE=([lsh100k]=lsh)
 # hmmlearn on 8 sequences (its per-sequence cost is flat in the batch; 56 took 145 s here); HOG: one
 # timed call after the warm-up (scikit-image's loop over 5,400 images is single-threaded)
-declare -A EXTRA=([hmm]="--hmmlearn-batch 8" [hog]="--repeats 1" [mjx]="--mjx-trials 1024"
+declare -A EXTRA=([hmm]="--hmmlearn-batch 8" [hog]="--repeats 1" [mjx]="--mjx-trials ${MJX_TRIALS:-1024}"
                   [levelset]="--data-dir .benchdata/hgr_hands" [background]="--cdnet-dir .benchdata/cdnet_highway"
                   [lsh100k]="--sizes 100000")
+for kv in ${LIMITS:-}; do LIMIT[${kv%%=*}]=${kv#*=}; done  # e.g. LIMITS="hmm=140 mjx=230"
 for b in $BENCHES; do
   p=${PRESET[$b]}; extra=${EXTRA[$b]:-}; mod=${MODULE[$b]:-$b}
   left=$(( TOTAL - ($(date +%s) - T0) )); lim=${LIMIT[$b]}; [ "$left" -lt "$lim" ] && lim=$left
