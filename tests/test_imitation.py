@@ -71,8 +71,10 @@ def test_bad_input_names_the_argument():
         pl.camera_rotation(np.zeros((3, 3)))
     with pytest.raises(ValueError, match="n_demos"):
         Config(n_demos=0)
-    with pytest.raises(ValueError, match="median_frames"):
-        Config(median_frames=2)
+    with pytest.raises(ValueError, match="median_s"):
+        Config(median_s=-0.1)
+    assert (CFG.online_window, CFG.median_frames, CFG.merge_gap) == (3, 3, 10)  # 10 fps
+    assert Config().median_frames % 2 == 1 and Config().merge_gap == 25  # 25 fps
     with pytest.raises(ValueError, match="approach"):
         Config(approach="teleport")
 

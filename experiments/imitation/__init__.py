@@ -11,7 +11,7 @@ Per demonstration (`stages.run_demo`, `pipeline`):
 1. video -> the stereo video front end (LEVELSET TR §3, LfD 2009 §III-C: level sets, α-β tracks of
    both views, the triangulated hand relative to the face);
 2. the online PHMM recogniser (BMVC 2008 §5.4: a streaming forward state per class, movement start
-   and end detected, class and parameter after a latency of `online_window` frames; Humanoids 2008
+   and end detected, class and parameter after a latency of `online_window_s`; Humanoids 2008
    §III): point or pick-and-place, and the target on the table, snapped to the nearest object;
 3. the grasp moment and the put-down from the hand's speed along the movement; the place = where the
    object stood plus the hand's displacement between them;

@@ -29,9 +29,11 @@ class Config:
     train_repetitions: int = 4           # movements per grid corner and class
     phmm_iter: int = 15
     noise_sigmas_m: tuple[float, ...] = (0.04, 0.08, 0.12)   # validation: observation noise added to the PHMMs
-    online_window: int = 3               # BMVC §5.4: detector look-ahead = report latency, frames
+    # durations in seconds, turned into frames at the video's frame rate (`online_window`, ...)
+    online_window_s: float = 0.3         # BMVC §5.4: detector look-ahead = report latency
     online_thresholds_m: tuple[float, ...] = (0.06, 0.10)  # validation: displacement over the window that starts one
-    median_frames: int = 3               # spike filter on the tracked positions (odd, 1: none)
+    median_s: float = 0.3                # spike filter on the tracked positions (0: none)
+    merge_gap_s: float = 1.0             # detected movements closer than this are one (a pointing hold, a put-down)
     # grasp recognition (GRASP §III): the grasp study's preset, exact kNN over its database
     grasp_preset: str = "quick"
     # robot (sim.task_controller)
@@ -44,13 +46,12 @@ class Config:
         if self.video_preset not in video.PRESETS:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
         for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_validation", 1),
-                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1),
-                          ("online_window", 1), ("median_frames", 1)):
+                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1)):
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
-        if self.median_frames % 2 == 0:
-            raise ValueError(f"median_frames: expected an odd number, got {self.median_frames}")
+        for name in ("online_window_s", "median_s", "merge_gap_s"):
+            check_real(getattr(self, name), name, min_value=0.0, max_value=10.0)
         for name in ("noise_sigmas_m", "online_thresholds_m"):
             values = getattr(self, name)
             if not isinstance(values, tuple) or not values:
@@ -68,6 +69,24 @@ class Config:
 
     def video_settings(self) -> video.VideoSettings:
         return video.preset(self.video_preset, seed=self.seed, n_persons=self.n_persons)
+
+    def _frames(self, seconds: float) -> int:
+        return max(1, round(seconds * self.video_settings().fps))
+
+    @property
+    def online_window(self) -> int:
+        """`online_window_s` in frames (at least 1)."""
+        return self._frames(self.online_window_s)
+
+    @property
+    def median_frames(self) -> int:
+        """`median_s` in frames, odd (1: no filter)."""
+        return self._frames(self.median_s) | 1
+
+    @property
+    def merge_gap(self) -> int:
+        """`merge_gap_s` in frames."""
+        return self._frames(self.merge_gap_s)
 
     @property
     def demonstrators(self) -> int:

@@ -126,7 +126,8 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
             online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
             score = 0
             for demo, t in zip(demos, tracked):
-                r = pl.recognise_demo(online, t, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy)
+                r = pl.recognise_demo(online, t, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+                                      merge_gap=cfg.merge_gap)
                 score += (r.kind == demo.kind) + (r.target == demo.target)
             scores[(sigma, thr)] = score
     sigma, thr = max(scores, key=lambda k: scores[k])  # the first maximum: dict order = config order
@@ -205,7 +206,7 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     t0 = time.perf_counter()
     grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked)
     r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                          grasp)
+                          grasp, merge_gap=cfg.merge_gap)
     times["recognition_s"] = time.perf_counter() - t0
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
