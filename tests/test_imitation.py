@@ -51,8 +51,13 @@ def test_robot_fetches_the_recognised_object(loop):
     spec = st.task_spec(CFG, DEMO, r)  # the script's object, its stand-in's grasp, to the hand-over spot
     assert spec.target == DEMO.target and spec.grasp == spec.objects[DEMO.target]
     assert np.allclose(spec.object_xy, DEMO.objects_xy) and np.allclose(spec.place_xy, CFG.handover_xy)
-    reach = pl.synthesised_reach(phmms[1], spec.object_xy[spec.target])  # the approach's shape
+    reach = pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target])  # the approach's shape
     assert reach.ndim == 2 and reach.shape[1] == 3 and len(reach) >= 10 and np.isfinite(reach).all()
+    c = phmms[pl.REACH].config  # the reach PHMM's own mean movement gives its target back (PHMM eq. 3)
+    xy = pl.reach_target(phmms[pl.REACH], pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target],
+                                                                max(c.min_length, c.max_length // 3)))
+    assert xy is not None and np.linalg.norm(xy - spec.object_xy[spec.target]) < 0.05
+    assert pl.reach_target(phmms[pl.REACH], reach[:1]) is None  # shorter than any path: flagged
     res = st.robot_task(CFG, DEMO, r, phmms)
     assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + sim.task_controller.STAGES
     if res.success:  # the handled object at the hand-over spot

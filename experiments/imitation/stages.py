@@ -20,7 +20,7 @@ from experiments.config import parse_config, progress
 from experiments.data import video
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
-from experiments.imitation.demonstrations import KINDS, Demo, demo_track, draw_demos, render_demo
+from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
 from lfd_common import cache_dir, enable_compilation_cache
 from sim.grasp_objects import GRASP_CLASSES
 
@@ -30,7 +30,8 @@ _TRAIN_SEED = 2000
 
 class Models(NamedTuple):
     """What the loop runs with: the skin models (chroma for the hand crop, RGB for the front end), the
-    grasp recogniser, the PHMMs (`KINDS` order) and the settings chosen on validation demonstrations."""
+    grasp recogniser, the PHMMs (`KINDS` order, then the reach PHMM) and the settings chosen on validation
+    demonstrations."""
 
     chroma_skin: Any
     rgb_skin: Any
@@ -40,6 +41,7 @@ class Models(NamedTuple):
     sigma_m: float
     threshold_m: float
     online: Any
+    reach: Any  # the reach PHMM with the chosen observation noise (`pipeline.reach_target`)
 
 
 def skin_models(cfg: Config, settings):
@@ -74,7 +76,7 @@ def _phmm_path(cfg: Config, settings):
 def phmm_models(cfg: Config, settings) -> list:
     """The PHMMs trained on kinematics of their own seed (`pipeline.train_phmms`), cached."""
     path = _phmm_path(cfg, settings)
-    files = [path.with_name(f"{path.name}_{k}.npz") for k in range(2)]
+    files = [path.with_name(f"{path.name}_{k}.npz") for k in range(pl.REACH + 1)]
     if all(f.exists() for f in files):
         return [P.load(f) for f in files]
     phmms = pl.train_phmms(cfg, settings, cfg.seed + _TRAIN_SEED)
@@ -124,10 +126,11 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
     for sigma in cfg.noise_sigmas_m:
         for thr in cfg.online_thresholds_m:
             online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+            reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
             score = 0
             for demo, t in zip(demos, tracked):
                 r = pl.recognise_demo(online, t, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                                      merge_gap=cfg.merge_gap)
+                                      merge_gap=cfg.merge_gap, reach_phmm=reach)
                 score += (r.kind == demo.kind) + (r.target == demo.target)
             scores[(sigma, thr)] = score
     sigma, thr = max(scores, key=lambda k: scores[k])  # the first maximum: dict order = config order
@@ -153,7 +156,8 @@ def prepare(cfg: Config, settings) -> tuple[Models, dict, dict]:
     offset, sigma, thr, metrics = validation_stage(cfg, settings, phmms, rgb)
     times["validation_s"] = time.perf_counter() - t0
     online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
-    return Models(chroma, rgb, grasp, phmms, offset, sigma, thr, online), metrics, times
+    reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
+    return Models(chroma, rgb, grasp, phmms, offset, sigma, thr, online, reach), metrics, times
 
 
 # ------------------------------------------------------------------------------------------ robot
@@ -184,11 +188,10 @@ def task_spec(cfg: Config, demo: Demo, r: pl.Recognised) -> sim.TaskSpec:
 def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, phmms, render: bool = False):
     """The robot repeats what was recognised (`sim.task_controller.run_task`, MAP §III grasp strategy
     through the mapping table) with the `task_spec`, approaching along the synthesised reach to the
-    object (`pipeline.synthesised_reach` of the "transfer" PHMM; `cfg.approach`). Returns the
+    object (`pipeline.synthesised_reach` of the reach PHMM; `cfg.approach`). Returns the
     `sim.TaskResult`."""
     spec = task_spec(cfg, demo, r)
-    path = (pl.synthesised_reach(phmms[KINDS.index("transfer")], spec.object_xy[spec.target])
-            if cfg.approach == "phmm" else None)
+    path = pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target]) if cfg.approach == "phmm" else None
     return sim.run_task(spec, approach_path=path, seed=int(demo.seed % 1000), render=render)
 
 
@@ -206,7 +209,7 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     t0 = time.perf_counter()
     grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked)
     r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                          grasp, merge_gap=cfg.merge_gap)
+                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach)
     times["recognition_s"] = time.perf_counter() - t0
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
