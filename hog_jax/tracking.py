@@ -28,14 +28,16 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
 5. acquire: once a frame has had `min_init` blobs, every target not tracked (never acquired, lost with
    `reacquire`, or concealed) takes, in target order, a blob no observed target took: a never-acquired
    target by its `init` rule ("top" highest centroid, "bottom", "left", "right", "largest";
-   "left_of_first" / "right_of_first": the leftmost / rightmost of the blobs on that side of target
-   0's position, none while target 0 is not tracked), the others the nearest to their last position (a
+   "left_of_first" / "right_of_first": the leftmost / rightmost of the blobs beyond that side of
+   target 0's ellipse (its centre -/+ 2 sigma along x), none while target 0 is not tracked), the others
+   the nearest to their last position (a
    concealed one only within twice its gate). Skin: init ("top", "left_of_first", "right_of_first")
    makes target 0 the face (the highest skin blob), target 1 the blob furthest left in the image and
    left of the face (the right hand of a person facing the camera) and target 2 the furthest right of
    the face (the other hand). The side matters where the right hand is out of view when tracking
    starts (below the table) and the other arm shows as two blobs (hand and bare forearm): "left" would
-   take the forearm, and the right hand, once it appears, would find every target taken.
+   take the forearm, and the right hand, once it appears, would find every target taken. The face's
+   extent matters where the neck shows as a skin blob of its own just below the face.
 
 Gains: `alpha_beta_gains(tracking_index)` gives Kalata's steady-state optimal α, β for the tracking
 index Λ = σ_a dt^2 / σ_z (acceleration and measurement noise; P. R. Kalata, "The tracking index: a
@@ -229,14 +231,17 @@ def _step(opts: _Options, state: TrackState, frame):
     fresh, k = [], []
     for m in range(M):  # in priority order; only scalars per target, so the unrolled loop stays small
         dist = jnp.sum((blob_centroid - state.position[m]) ** 2, axis=-1)
-        if m:  # target 0's position after this frame's acquisition: the side rules' reference
-            first_x = jnp.where(fresh[0], jnp.sum(jnp.where(jnp.arange(K) == k[0], x, 0.0)), position[0, 0])
+        if m:  # target 0's ellipse after this frame's acquisition: the side rules' reference
+            one = jnp.arange(K) == k[0]
+            first_x = jnp.where(fresh[0], jnp.sum(jnp.where(one, x, 0.0)), position[0, 0])
+            first_var = jnp.where(fresh[0], jnp.sum(jnp.where(one, blob_cov[:, 0, 0], 0.0)), cov[0, 0, 0])
+            half_width = 2.0 * jnp.sqrt(jnp.maximum(first_var, 0.0))
             first_there = tracked[0] | fresh[0]
         else:
-            first_x, first_there = jnp.float32(0.0), jnp.asarray(False)
+            first_x, half_width, first_there = jnp.float32(0.0), jnp.float32(0.0), jnp.asarray(False)
         by_rule = jnp.stack([blob_centroid[:, 1], -blob_centroid[:, 1], x, -x, -blob_area,
-                             jnp.where(first_there & (x < first_x), x, jnp.inf),
-                             jnp.where(first_there & (x > first_x), -x, jnp.inf)])  # INIT_RULES order
+                             jnp.where(first_there & (x < first_x - half_width), x, jnp.inf),
+                             jnp.where(first_there & (x > first_x + half_width), -x, jnp.inf)])  # INIT_RULES order
         rule = jnp.sum(jnp.where((jnp.arange(len(INIT_RULES)) == opts.rules[m])[:, None], by_rule, 0.0), axis=0)
         # a concealed target takes a free blob only near it (twice its gate): the hand leaving the face
         allowed = free & (~concealed[m] | (nearest[m] <= 4.0 * opts.gate2))

@@ -93,8 +93,8 @@ def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W
     0 background, 1 person, 2 skin, 3 object, or any labelling with `skin_label` and `object_label`),
     or boolean skin masks (then no object is tracked). camera: the rectified pair (its image size must
     be H x W). init: the skin targets' acquisition rules (`track`; default: the face the highest skin
-    blob, the hand the leftmost blob left of the face, and the other hand the rightmost right of it, so
-    that neither a piece of the other arm nor the other hand is taken for the hand),
+    blob, the hand the leftmost blob left of the face's extent, and the other hand the rightmost right
+    of it, so that neither a piece of the other arm, the neck nor the other hand is taken for the hand),
     from the first frame with `min_init` skin blobs (2: face and hand; 3 where both hands are in view
     once the person is there, so that a frame showing the face and only the other hand does not
     start the hand's track on it). max_blobs,
