@@ -23,6 +23,9 @@ class Config:
     # the level sets' coarse scale (TR §5; from 240 x 320 up) loses the hand held out from the body: off,
     # chosen on validation demonstrations (README, issue 21: the 3-D hand found in the reach and carry)
     coarse_scale: bool = False
+    # the smallest skin blob tracked, in pixels of a 160 x 120 frame (scaled with the frame's area): at
+    # 320 x 240 a 5-pixel speck on the head was the highest skin blob and became the "face" (README, issue 21)
+    min_blob_px_160: int = 4
     handover_xy: tuple[float, ...] = (-0.1, -0.30)   # where a fetched object goes (world x, y; before the person)
     # PHMMs (Humanoids 2008 §III) trained on the demonstrations' kinematics, 3 x 3 grid over the objects' area
     n_states: int = 6
@@ -46,7 +49,8 @@ class Config:
         if self.video_preset not in video.PRESETS:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
         for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_validation", 1),
-                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1)):
+                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1),
+                          ("min_blob_px_160", 1)):
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")

@@ -72,6 +72,7 @@ def _track_path(cfg: Config, settings, demo: Demo):
 
     blob = json.dumps({"video": _cache_path(settings, demo).name, "pad": cfg.pad_frames, "seed": cfg.seed,
                        "skin": [cfg.n_persons, cfg.n_skin_persons], "coarse": cfg.coarse_scale,
+                       "min_blob": cfg.min_blob_px_160,
                        "code": _source_digest()}, sort_keys=True)
     return cache_dir("imitation_tracks") / f"track_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
 
@@ -86,7 +87,7 @@ def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> 
         with np.load(path) as z:
             return Tracked(z["diff"], z["found"], z["hand_rc"], int(z["start"]))
     _, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + demo.seed % 100_000),
-                                    cfg.pad_frames, cfg.coarse_scale)
+                                    cfg.pad_frames, cfg.coarse_scale, min_blob_area(cfg, rec.left.shape[1:3]))
     hand_l, _, _ = hand_tracks(positions, start)
     found = np.asarray(positions.found_3d, bool).copy()
     found[:start] = False
@@ -95,6 +96,11 @@ def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> 
     out = Tracked(diff.astype(np.float32), found, hand_l.astype(np.float32), int(start))
     write_npz(path, **out._asdict())
     return out
+
+
+def min_blob_area(cfg: Config, shape: tuple[int, int]) -> int:
+    """`cfg.min_blob_px_160` scaled from a 160 x 120 frame to frames of `shape` (H, W)."""
+    return max(1, round(cfg.min_blob_px_160 * shape[0] * shape[1] / (160 * 120)))
 
 
 def median_filter(x: np.ndarray, width: int) -> np.ndarray:

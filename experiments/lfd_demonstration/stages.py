@@ -28,14 +28,15 @@ from hog_jax.tracks import HAND
 from hog_jax.video import PERSON, SKIN, VideoOptions, fit_video_models, segment_stereo
 from lfd_common import enable_compilation_cache
 
-def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool = True):
+def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool = True, min_area: int = 4):
     """The video front end of issue 18 on one recording: (labels of the left view (T, H, W),
-    `HandFacePositions`, segmentation start). coarse_scale: `VideoOptions.coarse_scale`."""
+    `HandFacePositions`, segmentation start). coarse_scale: `VideoOptions.coarse_scale`; min_area: the
+    smallest blob tracked (`hand_face_positions`), pixels."""
     options = VideoOptions(background=background_options(settings), coarse_scale=coarse_scale)
     start = segmentation_start(settings)
     left, right, T = _pad(rec, pad_frames)
     models, _ = fit_video_models(key, rgb_skin, left, start, options)
-    seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
+    seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3, min_area=min_area)
     cut = lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a
     return cut(seg.left.labels), jax.tree.map(cut, seg.positions), start
 
