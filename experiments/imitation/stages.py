@@ -294,6 +294,8 @@ def main(argv=None) -> dict:
     for i, demo in enumerate(progress(demos, desc="demonstrations")):
         results.append(run_demo(cfg, settings, models, demo, render_robot=robot_ran and i == 0))
         r = results[-1]
+        if i:  # only the first demonstration's recording is drawn (side_by_side): 50 paper ones filled 9 GB
+            r.pop("rec")
         print(f"demo {i}: {demo.kind} object {demo.target} grasp {demo.grasp} -> {r['kind_recognised']} object "
               f"{r['target_recognised']} grasp {r['grasp_recognised']} ({r['target_error_cm']:.1f} cm); "
               f"failed: {r['failed_stage']}", flush=True)
