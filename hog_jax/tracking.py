@@ -30,8 +30,7 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
    target by its `init` rule ("top" highest centroid, "bottom", "left", "right", "largest";
    "left_of_first" / "right_of_first": the leftmost / rightmost of the blobs beyond that side of
    target 0's ellipse (its centre -/+ 2 sigma along x), none while target 0 is not tracked), the others
-   the nearest to their last position (a
-   concealed one only within twice its gate). Skin: init ("top", "left_of_first", "right_of_first")
+   the nearest to their last position (a concealed one only within twice its gate). Skin: init ("top", "left_of_first", "right_of_first")
    makes target 0 the face (the highest skin blob), target 1 the blob furthest left in the image and
    left of the face (the right hand of a person facing the camera) and target 2 the furthest right of
    the face (the other hand). The side matters where the right hand is out of view when tracking
