@@ -144,3 +144,29 @@ def test_nuisances_switch_off_one_difference_at_a_time(x_set):
     assert np.median(iou[x_set.stage == 0]) < np.median(iou[x_set.stage == 2])
     with pytest.raises(ValueError, match="nuisances"):
         sequence_set(seed=3, frame_size=64, nuisances=(True, True, True))
+
+
+def test_degraded_crops_lose_detail_finer_than_the_hand_s_pixels_and_keep_the_rest():
+    from experiments.grasp_recognition.pieces import degrade_crops
+
+    S = 32
+    r, c = np.mgrid[:S, :S]
+    fine = ((r + c) % 2).astype(np.float32)                        # one-pixel checkerboard
+    smooth = (0.5 + 0.4 * np.sin(2 * np.pi * c / S)).astype(np.float32)  # one period across the crop
+    full = np.ones((2, S, S), bool)
+    same, m_same = degrade_crops(np.stack([fine, smooth]), full, S)
+    np.testing.assert_allclose(same, [fine, smooth], atol=1e-5)
+    assert m_same.all()
+    out, masks = degrade_crops(np.stack([fine, smooth]), full, S // 4)
+    assert out.shape == (2, S, S) and masks.all()
+    assert out[0, 4:-4, 4:-4].std() < 0.02 * fine.std()           # the checkerboard is gone ...
+    np.testing.assert_allclose(out[1, 4:-4, 4:-4], smooth[4:-4, 4:-4], atol=0.05)  # ... the slow wave stays
+    half = np.zeros((1, S, S), bool)
+    half[0, :, : S // 2] = True
+    _, m_half = degrade_crops(np.ones((1, S, S), np.float32), half, 8)
+    assert abs(int(m_half.sum()) - S * S // 2) <= 2 * S            # a mask keeps its area
+    for bad in (0, S + 1, 2.5, True):
+        with pytest.raises(ValueError, match="pixels"):
+            degrade_crops(np.stack([fine]), full[:1], bad)
+    with pytest.raises(ValueError, match="masks"):
+        degrade_crops(np.stack([fine]), full, 8)

@@ -45,6 +45,7 @@ class Config:
     classifier_hidden: int = 512
     classifier_epochs: int = 30
     skin_adaptation: str = "none"    # none | background | both: the skin model adapted to each frame
+    db_pixels: int = 0               # database crops degraded to a hand this many pixels across (0: as rendered)
     n_validation: int = 300          # validation images (their own seed and hand) for tuning
     ladder: bool = True              # the six-rung ladder of where the accuracy goes
     sweeps: bool = True              # accuracy against k, database size, B x L
@@ -52,6 +53,8 @@ class Config:
     def __post_init__(self):
         if min(self.n_azimuth, self.n_elevation, self.k, self.n_large, self.n_held_out, self.timing_repeats) < 1:
             raise ValueError("n_azimuth, n_elevation, k, n_large, n_held_out and timing_repeats must be >= 1")
+        if not 0 <= self.db_pixels <= self.crop_size:
+            raise ValueError(f"db_pixels: expected 0 (none) or at most crop_size {self.crop_size}, got {self.db_pixels}")
         if min(self.n_random_views, self.lsh_probes, self.metric_components) < 0 or self.n_random_hands < 1:
             raise ValueError("n_random_views, lsh_probes, metric_components must be >= 0, n_random_hands >= 1")
         if self.n_random_views > self.random_pool or self.random_pool < self.n_random_hands:

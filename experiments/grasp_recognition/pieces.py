@@ -2,6 +2,8 @@
 kNN prediction, orientation errors, confusion, the sensitivity sweeps."""
 from __future__ import annotations
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 import hog_jax
@@ -19,6 +21,27 @@ def bar(desc):
 def render_database(cfg: Config, n_azimuth: int, n_elevation: int):
     return view_database(GRASP_CLASSES, n_azimuth, n_elevation, render_size=cfg.render_size, out_size=cfg.crop_size,
                          progress=lambda it, total, desc: progress(it, desc=desc, total=total))
+
+
+def degrade_crops(images: np.ndarray, masks: np.ndarray, pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Crops (N, S, S) and masks as a camera that saw the hand `pixels` across would give them: resampled
+    (linear, antialiased) down to pixels x pixels and back up to S x S, as `hog_jax.segment` resamples a
+    small box; masks through the same path, thresholded at 0.5. ValueError naming the argument."""
+    images = np.asarray(images, np.float32)
+    if images.ndim != 3 or images.shape[1] != images.shape[2]:
+        raise ValueError(f"images: expected (N, S, S) crops, got shape {images.shape}")
+    if np.shape(masks) != images.shape:
+        raise ValueError(f"masks: expected the images' shape {images.shape}, got {np.shape(masks)}")
+    side = images.shape[1]
+    if isinstance(pixels, bool) or not isinstance(pixels, (int, np.integer)) or not 1 <= pixels <= side:
+        raise ValueError(f"pixels: expected an int in [1, {side}], got {pixels!r}")
+
+    def through(x):
+        small = jax.image.resize(jnp.asarray(x, jnp.float32), (len(x), pixels, pixels), "linear", antialias=True)
+        return jax.image.resize(small, (len(x), side, side), "linear", antialias=True)
+
+    m = masks.astype(np.float32)
+    return np.asarray(through(images * m)), np.asarray(through(m)) > 0.5
 
 
 def held_out_views(cfg: Config):

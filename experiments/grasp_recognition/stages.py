@@ -17,8 +17,8 @@ from experiments.data.grasp_tests import random_set, sequence_set, skin_training
 from experiments.grasp_recognition import plots
 from experiments.grasp_recognition.config import EULER_NAMES, PRESETS, Config
 from experiments.grasp_recognition.ladder import RUNGS, mask_crops, rung_sets
-from experiments.grasp_recognition.pieces import (accuracy, bar, held_out_views, render_database, robot_accuracy,
-                                                  segment_frames, sweeps)
+from experiments.grasp_recognition.pieces import (accuracy, bar, degrade_crops, held_out_views, render_database,
+                                                  robot_accuracy, segment_frames, sweeps)
 from experiments.grasp_recognition.recogniser import Recogniser, build_recogniser
 from experiments.grasp_recognition.scoring import score_sets
 from experiments.grasp_recognition.report import report
@@ -40,16 +40,21 @@ class Setup(NamedTuple):
 
 def database(cfg: Config):
     """The grid database, plus `cfg.n_random_views` domain-randomised views per grasp, a seeded random
-    subset of a pool of `cfg.random_pool` per grasp (one rendered pool serves every size)."""
+    subset of a pool of `cfg.random_pool` per grasp (one rendered pool serves every size); with
+    `cfg.db_pixels`, every crop degraded to that resolution (`degrade_crops`)."""
     db = render_database(cfg, cfg.n_azimuth, cfg.n_elevation)
-    if not cfg.n_random_views:
+    if cfg.n_random_views:
+        pool = randomized_views(cfg.random_pool, cfg.n_random_hands, cfg.seed, cfg.render_size, cfg.crop_size,
+                                progress=lambda it, total, d: progress(it, desc=d, total=total))
+        rng = np.random.default_rng([cfg.seed, 21])
+        rows = np.concatenate([g * cfg.random_pool + np.sort(rng.choice(cfg.random_pool, cfg.n_random_views,
+                                                                        replace=False))
+                               for g in range(len(GRASP_CLASSES))])
+        db = concatenate_databases(db, type(pool)(*(a[rows] for a in pool)))
+    if not cfg.db_pixels:
         return db
-    pool = randomized_views(cfg.random_pool, cfg.n_random_hands, cfg.seed, cfg.render_size, cfg.crop_size,
-                            progress=lambda it, total, d: progress(it, desc=d, total=total))
-    rng = np.random.default_rng([cfg.seed, 21])
-    rows = np.concatenate([g * cfg.random_pool + np.sort(rng.choice(cfg.random_pool, cfg.n_random_views, replace=False))
-                           for g in range(len(GRASP_CLASSES))])
-    return concatenate_databases(db, type(pool)(*(a[rows] for a in pool)))
+    images, masks = degrade_crops(db.images, db.masks, cfg.db_pixels)
+    return db._replace(images=images, masks=masks)
 
 
 def validation_crops(cfg: Config, skin) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -14,9 +14,10 @@ Per demonstration (`stages.run_demo`, `pipeline`):
    and end detected, class and parameter after a latency of `online_window_s`; Humanoids 2008
    §III): point or pick-and-place, and the target on the table, snapped to the nearest object;
 3. the grasp moment and the put-down from the hand's speed along the movement; the place = where the
-   object stood plus the hand's displacement between them;
-4. the grasp class and the hand's orientation from the hand image at the grasp moment (GRASP §III,
-   eqs. 3-4: HOG, kNN over the rendered grasp database);
+   object stood plus the hand's displacement between them (`Config.place_half_s`: both averaged);
+4. the grasp class from the hand image at the grasp moment (`grasp_stage`; GRASP §III, eq. 3: HOG, kNN
+   over hand crops of demonstrations of their own seed, or over the grasp study's rendered database,
+   which also gives the hand's orientation, eq. 4);
 5. the robot (`sim.task_controller.run_task`, MAP §III grasp strategy with the mapped preshape) does
    the task, where that controller is in the tree.
 Settings (tracker offset, PHMM observation noise, movement threshold) are chosen on validation

@@ -37,8 +37,16 @@ class Config:
     online_thresholds_m: tuple[float, ...] = (0.06, 0.10)  # validation: displacement over the window that starts one
     median_s: float = 0.3                # spike filter on the tracked positions (0: none)
     merge_gap_s: float = 1.0             # detected movements closer than this are one (a pointing hold, a put-down)
-    # grasp recognition (GRASP §III): the grasp study's preset, exact kNN over its database
+    place_half_s: float = 0.0            # validation: grasp moment, put-down and place over +- this (0: one frame)
+    # grasp recognition (GRASP §III, `grasp_stage`): eq. 3's exact kNN over HOG of the hand crop, the database
+    # the grasp study's rendered views ("study": its preset `grasp_preset`, degraded to `grasp_db_pixels` when
+    # set) or crops of `grasp_train_demos` transfer demonstrations of their own seed ("demonstrations")
+    grasp_database: str = "demonstrations"
     grasp_preset: str = "quick"
+    grasp_db_pixels: int = 0
+    grasp_train_demos: int = 48
+    grasp_frames_s: tuple[float, ...] = (-0.24, -0.16, -0.08, 0.0, 0.08)   # crops around each pick-up
+    grasp_window_frac: float = 0.1       # validation: skin within this fraction of the width of the hand (0: all)
     # robot (sim.task_controller)
     robot: bool = True
     robot_hand: str = "barrett"
@@ -49,12 +57,12 @@ class Config:
         if self.video_preset not in video.PRESETS:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
         for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_validation", 1),
-                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1),
+                          ("pad_frames", 1), ("n_states", 2), ("grasp_db_pixels", 0), ("grasp_train_demos", 1), ("train_repetitions", 1), ("phmm_iter", 1),
                           ("min_blob_px_160", 1)):
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
-        for name in ("online_window_s", "median_s", "merge_gap_s"):
+        for name in ("online_window_s", "median_s", "merge_gap_s", "place_half_s"):
             check_real(getattr(self, name), name, min_value=0.0, max_value=10.0)
         for name in ("noise_sigmas_m", "online_thresholds_m"):
             values = getattr(self, name)
@@ -65,6 +73,13 @@ class Config:
         if not isinstance(self.handover_xy, tuple) or len(self.handover_xy) != 2:
             raise ValueError(f"handover_xy: expected (x, y), got {self.handover_xy!r}")
         check_real(self.place_tolerance_m, "place_tolerance_m", min_value=0.0, exclusive_min=True)
+        if self.grasp_database not in ("study", "demonstrations"):
+            raise ValueError(f"grasp_database: expected 'study' or 'demonstrations', got {self.grasp_database!r}")
+        check_real(self.grasp_window_frac, "grasp_window_frac", min_value=0.0, max_value=1.0)
+        if not isinstance(self.grasp_frames_s, tuple) or not self.grasp_frames_s:
+            raise ValueError(f"grasp_frames_s: expected a non-empty tuple, got {self.grasp_frames_s!r}")
+        for v in self.grasp_frames_s:
+            check_real(v, "grasp_frames_s", min_value=-10.0, max_value=10.0)
         if self.approach not in ("phmm", "straight"):
             raise ValueError(f"approach: expected 'phmm' or 'straight', got {self.approach!r}")
         for name in ("robot", "coarse_scale"):
@@ -93,6 +108,11 @@ class Config:
         return self._frames(self.merge_gap_s)
 
     @property
+    def place_half(self) -> int:
+        """`place_half_s` in frames (0: none)."""
+        return round(self.place_half_s * self.video_settings().fps)
+
+    @property
     def demonstrators(self) -> int:
         """Persons 0 .. demonstrators - 1 demonstrate; the others' clips train the skin models."""
         return self.n_persons - self.n_skin_persons
@@ -102,6 +122,6 @@ VALIDATION_SEED = 1000
 
 PRESETS = {
     "quick": {"video_preset": "quick", "n_demos": 4, "n_validation": 2, "train_repetitions": 3, "phmm_iter": 10,
-              "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,)},
+              "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,), "grasp_database": "study"},
     "paper": {},
 }

@@ -11,7 +11,6 @@ import time
 import types
 from typing import Any, NamedTuple
 
-import jax
 import numpy as np
 
 import phmm_jax as P
@@ -21,6 +20,7 @@ from experiments.data import video
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
+from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser
 from lfd_common import cache_dir, enable_compilation_cache
 from sim.grasp_objects import GRASP_CLASSES
 
@@ -53,17 +53,6 @@ def skin_models(cfg: Config, settings):
     return chroma, rgb
 
 
-def grasp_recogniser(cfg: Config):
-    """The grasp study's recogniser of `cfg.grasp_preset` (its rendered database; exact kNN, eqs. 3-4)."""
-    from experiments.config import resolve_config
-    from experiments.grasp_recognition.config import PRESETS as GP, Config as GConfig
-    from experiments.grasp_recognition.recogniser import build_recogniser
-    from experiments.grasp_recognition.stages import database
-
-    gcfg = resolve_config(GConfig, GP, cfg.grasp_preset, {"seed": cfg.seed})
-    return gcfg, build_recogniser(gcfg, jax.random.key(cfg.seed), database(gcfg), None)
-
-
 def _phmm_path(cfg: Config, settings):
     fields = {k: getattr(cfg, k) for k in ("seed", "n_persons", "n_skin_persons", "handover_xy", "n_states",
                                            "train_repetitions", "phmm_iter")}
@@ -83,23 +72,6 @@ def phmm_models(cfg: Config, settings) -> list:
     for f, m in zip(files, phmms):
         P.save(f, m)
     return phmms
-
-
-def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording, tracked: pl.Tracked):
-    """frame -> (grasp class, quaternion) of the hand crop at that frame (-1, NaN if no hand is found)."""
-    from experiments.grasp_recognition.recogniser import features, recognise
-
-    gcfg, recogniser = models_grasp
-
-    def at(frame: int):
-        images, masks, found = pl.hand_crop(rec.left[frame], tracked.hand_rc[frame], chroma_skin, gcfg.crop_size)
-        if not found.any():
-            return -1, np.full(4, np.nan)
-        out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
-        label = int(out.labels[0])
-        return (GRASP_CLASSES[label] if label >= 0 else -1), out.quat[0]
-
-    return at
 
 
 def _tracked_demo(cfg, settings, demo, rgb_skin):
@@ -147,7 +119,7 @@ def prepare(cfg: Config, settings) -> tuple[Models, dict, dict]:
     chroma, rgb = skin_models(cfg, settings)
     times["skin_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    grasp = grasp_recogniser(cfg)
+    grasp = grasp_recogniser(cfg, settings, chroma)
     times["grasp_database_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     phmms = phmm_models(cfg, settings)
@@ -207,9 +179,9 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     tracked = pl.track(cfg, settings, demo, rec, models.rgb_skin)
     times["tracking_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked)
+    grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked.hand_rc, settings)
     r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach)
+                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach, place_half=cfg.place_half)
     times["recognition_s"] = time.perf_counter() - t0
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,

@@ -1,0 +1,116 @@
+"""The imitation loop's grasp stage (issue 21; GRASP §III): the demonstrating hand's crop at the grasp
+moment and its grasp class by eq. 3's kNN over HOG, from one of two databases:
+
+- "study": the grasp recognition study's rendered hand views (`cfg.grasp_preset`, optionally degraded
+  to `cfg.grasp_db_pixels`); orientation by eq. 4.
+- "demonstrations": hand crops cut the same way from transfer demonstrations of their own seed (never
+  the evaluated or the validation ones), around each one's pick-up frame, labelled with its grasp. No
+  orientation (the crops carry none): the quaternion is NaN.
+
+Why both: at 320 x 240 the demonstrating hand is about 16 pixels across, its crop holds part of the
+wrist and the object, and the study's views (a bare hand, 64 pixels, every direction of the upper half
+sphere) recognise it below chance on validation crops (`experiments/validation/imitation_grasp.py`;
+README, issue 21)."""
+from __future__ import annotations
+
+import jax
+import numpy as np
+
+import hog_jax
+from experiments.data import video
+from experiments.imitation.config import Config
+from experiments.imitation.demonstrations import draw_demos, render_demo
+from sim.grasp_objects import GRASP_CLASSES
+
+_GRASP_SEED = 3000  # the demonstrations of the "demonstrations" database (PHMMs: 2000, validation: 1000)
+
+
+def hand_crop(frame: np.ndarray, hand_rc, skin, out_size: int, window: int = 0):
+    """The skin-segmented hand crop (images (1, S, S), masks, found) at the tracked hand (row, col) of
+    `frame` (H, W, 3) (GRASP §III-A); `window` > 0: only skin within that many pixels (a square) of the
+    hand, so that a skin-coloured sleeve or jacket joined to the hand does not become the crop."""
+    rc = np.asarray(hand_rc, np.float32)
+    if window:
+        r0, c0 = int(round(rc[0])) - window, int(round(rc[1])) - window
+        padded = np.pad(frame, ((window, window), (window, window), (0, 0)))
+        frame = padded[r0 + window: r0 + 3 * window + 1, c0 + window: c0 + 3 * window + 1]
+        rc = rc - [r0, c0]
+    seg = hog_jax.segment(skin, frame[None], seed_points=rc[None], out_size=out_size)
+    return np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)
+
+
+def crop_window(cfg: Config, settings: video.VideoSettings) -> int:
+    """`cfg.grasp_window_frac` of the frame width in pixels (0: no window)."""
+    return round(cfg.grasp_window_frac * settings.width) if cfg.grasp_window_frac else 0
+
+
+def _study_config(cfg: Config):
+    from experiments.config import resolve_config
+    from experiments.grasp_recognition.config import PRESETS as GP, Config as GConfig
+
+    return resolve_config(GConfig, GP, cfg.grasp_preset, {"seed": cfg.seed, "db_pixels": cfg.grasp_db_pixels})
+
+
+def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin, n: int, seed: int):
+    """Hand crops of n transfer demonstrations drawn with `seed`, at their pick-up frame shifted by each
+    of `cfg.grasp_frames_s`, cut at the renderer's right-hand centroid (the tracker taken out): images
+    (N, S, S), masks, found (N,), grasp classes (N,), demonstration index (N,)."""
+    crop_size = _study_config(cfg).crop_size
+    window = crop_window(cfg, settings)
+    demos = draw_demos(n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
+    shifts = sorted({round(s * settings.fps) for s in cfg.grasp_frames_s})
+    out = []
+    for i, demo in enumerate(demos):
+        rec = render_demo(settings, demo)
+        for shift in shifts:
+            f = int(np.clip(rec.pickup_frames[0] + shift, 0, len(rec.left) - 1))
+            if rec.ellipse_found[f, 0, 0]:
+                x, y = rec.ellipse_centre[f, 0, 0]
+                out.append((*hand_crop(rec.left[f], (y, x), chroma_skin, crop_size, window), demo.grasp, i))
+    if not out:
+        raise ValueError(f"n: no hand visible at the pick-up of the {n} demonstrations")
+    images, masks, found = (np.concatenate([o[j] for o in out]) for j in range(3))
+    return images, masks, found, np.array([o[3] for o in out]), np.array([o[4] for o in out])
+
+
+def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
+    """(study config, `experiments.grasp_recognition.recogniser.Recogniser`) of `cfg.grasp_database`."""
+    from experiments.grasp_recognition.pieces import hog_features
+    from experiments.grasp_recognition.recogniser import Recogniser, build_recogniser, hog_config
+    from experiments.grasp_recognition.stages import database
+
+    gcfg = _study_config(cfg)
+    if cfg.grasp_database == "study":
+        return gcfg, build_recogniser(gcfg, jax.random.key(cfg.seed), database(gcfg), None)
+    images, masks, found, grasps, _ = demonstration_crops(cfg, settings, chroma_skin, cfg.grasp_train_demos,
+                                                          cfg.seed + _GRASP_SEED)
+    hcfg = hog_config(gcfg)
+    x = hog_features(images[found], masks[found], np.ones(int(found.sum()), bool), hcfg)
+    labels = np.array([GRASP_CLASSES.index(g) for g in grasps[found]])
+    model = hog_jax.fit(x, labels, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
+    return gcfg, Recogniser(hcfg, None, model, {}, None, gcfg.k, None)
+
+
+def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording, hand_rc: np.ndarray,
+                   settings: video.VideoSettings):
+    """frame -> (grasp class, quaternion) of the hand crop at that frame, cut at `hand_rc` (T, 2) (row,
+    col) of the tracked hand (-1 and NaN where no hand is found; NaN quaternion from the
+    "demonstrations" database)."""
+    from experiments.grasp_recognition.recogniser import features, recognise
+
+    gcfg, recogniser = models_grasp
+    window = crop_window(cfg, settings)
+
+    def at(frame: int):
+        images, masks, found = hand_crop(rec.left[frame], hand_rc[frame], chroma_skin, gcfg.crop_size, window)
+        if not found.any():
+            return -1, np.full(4, np.nan)
+        out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
+        label = int(out.labels[0])
+        quat = out.quat[0] if cfg.grasp_database == "study" else np.full(4, np.nan)
+        return (GRASP_CLASSES[label] if label >= 0 else -1), quat
+
+    return at
+
+
+__all__ = ["crop_window", "demonstration_crops", "grasp_function", "grasp_recogniser", "hand_crop"]
