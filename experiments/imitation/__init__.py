@@ -14,7 +14,7 @@ Per demonstration (`stages.run_demo`, `pipeline`):
    and end detected, class and parameter after a latency of `online_window_s`; Humanoids 2008
    §III): point or pick-and-place, and the target on the table, snapped to the nearest object;
 3. the grasp moment and the put-down from the hand's speed along the movement; the place = where the
-   object stood plus the hand's displacement between them (`Config.place_half_s`: both averaged);
+   object stood plus the hand's displacement between them;
 4. the grasp class from the hand image at the grasp moment (`grasp_stage`; GRASP §III, eq. 3: HOG, kNN
    over hand crops of demonstrations of their own seed, or over the grasp study's rendered database,
    which also gives the hand's orientation, eq. 4);

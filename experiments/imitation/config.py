@@ -37,7 +37,6 @@ class Config:
     online_thresholds_m: tuple[float, ...] = (0.06, 0.10)  # validation: displacement over the window that starts one
     median_s: float = 0.3                # spike filter on the tracked positions (0: none)
     merge_gap_s: float = 1.0             # detected movements closer than this are one (a pointing hold, a put-down)
-    place_half_s: float = 0.0            # validation: grasp moment, put-down and place over +- this (0: one frame)
     # grasp recognition (GRASP §III, `grasp_stage`): eq. 3's exact kNN over HOG of the hand crop, the database
     # the grasp study's rendered views ("study": its preset `grasp_preset`, degraded to `grasp_db_pixels` when
     # set) or crops of `grasp_train_demos` transfer demonstrations of their own seed ("demonstrations")
@@ -62,7 +61,7 @@ class Config:
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
-        for name in ("online_window_s", "median_s", "merge_gap_s", "place_half_s"):
+        for name in ("online_window_s", "median_s", "merge_gap_s"):
             check_real(getattr(self, name), name, min_value=0.0, max_value=10.0)
         for name in ("noise_sigmas_m", "online_thresholds_m"):
             values = getattr(self, name)
@@ -106,11 +105,6 @@ class Config:
     def merge_gap(self) -> int:
         """`merge_gap_s` in frames."""
         return self._frames(self.merge_gap_s)
-
-    @property
-    def place_half(self) -> int:
-        """`place_half_s` in frames (0: none)."""
-        return round(self.place_half_s * self.video_settings().fps)
 
     @property
     def demonstrators(self) -> int:

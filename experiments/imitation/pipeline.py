@@ -279,16 +279,12 @@ def movement(rec_online, stream: np.ndarray, merge_gap: int):
     return KINDS[k], phi_to_xy(np.asarray(res.phi)[0, k].astype(float)), s, e
 
 
-def grasp_and_putdown(stream: np.ndarray, measured: np.ndarray, start: int, end: int,
-                      half: int = 0) -> tuple[int, int]:
-    """The grasp moment and the put-down of a transfer: the slowest measured frames of the hand over the
-    first half of the movement (the hand at the object) and over the rest before the return. The
-    speed at t is the displacement from t - 1 to t (half = 0), or from t - half to t + half (both ends
-    measured, i.e. tracked and not held), which averages the tracker's frame-to-frame noise out."""
-    T = len(stream)
-    lo, hi = np.maximum(np.arange(T) - max(half, 1), 0), np.minimum(np.arange(T) + half, T - 1)
-    speed = np.linalg.norm(stream[hi] - stream[lo], axis=1)
-    speed = np.where(measured[lo] & measured[hi] & (np.arange(T) > 0), speed, np.inf)
+def grasp_and_putdown(stream: np.ndarray, measured: np.ndarray, start: int, end: int) -> tuple[int, int]:
+    """The grasp moment and the put-down of a transfer: the slowest measured frames of the hand (both
+    it and the frame before tracked, not held) over the first half of the movement (the hand at the
+    object) and over the rest before the return."""
+    speed = np.r_[np.inf, np.linalg.norm(np.diff(stream, axis=0), axis=1)]
+    speed = np.where(measured & np.r_[False, measured[:-1]], speed, np.inf)
     length = end - start + 1
 
     def slowest(a, b):
@@ -300,13 +296,6 @@ def grasp_and_putdown(stream: np.ndarray, measured: np.ndarray, start: int, end:
     return g, p
 
 
-def displacement(stream: np.ndarray, g: int, p: int, half: int = 0) -> np.ndarray:
-    """(2,) the hand's table-plane displacement from the grasp moment g to the put-down p: the medians
-    of the frames within `half` of each (0: those frames alone)."""
-    at = lambda t: np.median(stream[max(t - half, 0): t + half + 1, :2], axis=0)  # noqa: E731
-    return at(p) - at(g)
-
-
 def synthesised_reach(reach_phmm: P.PHMM, object_xy: np.ndarray, length: int = 50) -> np.ndarray:
     """The reach of a person to an object at `object_xy` (2,) world m: the reach PHMM's mean movement
     for that target (Humanoids 2008 §III synthesis, `phmm_jax.synthesize`), hand - face in world axes
@@ -315,13 +304,11 @@ def synthesised_reach(reach_phmm: P.PHMM, object_xy: np.ndarray, length: int = 5
 
 
 def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, objects_xy: np.ndarray,
-                   handover_xy, grasp=None, merge_gap: int = 10, reach_phmm: P.PHMM | None = None,
-                   place_half: int = 0) -> Recognised:
+                   handover_xy, grasp=None, merge_gap: int = 10, reach_phmm: P.PHMM | None = None) -> Recognised:
     """Action, target, grasp moment, put-down and place of one tracked demonstration; `grasp`
     (frame index -> (class, quat)) recognises the hand at the grasp moment (None: not recognised);
     `reach_phmm` (with its observation noise) reads a transfer's target from its reach (`reach_target`;
-    None: from the whole movement); place_half: `grasp_and_putdown`'s and `displacement`'s half width
-    (frames)."""
+    None: from the whole movement)."""
     objects_xy = np.asarray(objects_xy, float)
     if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
         raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
@@ -336,11 +323,11 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
     if kind == "point":
         return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan))
-    g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e, place_half)
+    g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e)
     from_reach = None if reach_phmm is None else reach_target(reach_phmm, stream[s:g + 1])
     if from_reach is not None:
         xy = from_reach
         target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
-    place = objects_xy[target] + displacement(stream, g, p, place_half)
+    place = objects_xy[target] + (stream[p, :2] - stream[g, :2])
     cls, quat = grasp(g) if grasp is not None else (-1, np.full(4, np.nan))
     return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float))

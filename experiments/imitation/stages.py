@@ -181,7 +181,7 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     t0 = time.perf_counter()
     grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked.hand_rc, settings)
     r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach, place_half=cfg.place_half)
+                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach)
     times["recognition_s"] = time.perf_counter() - t0
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
