@@ -56,8 +56,8 @@ class Config:
         if self.video_preset not in video.PRESETS:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
         for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_validation", 1),
-                          ("pad_frames", 1), ("n_states", 2), ("grasp_db_pixels", 0), ("grasp_train_demos", 1), ("train_repetitions", 1), ("phmm_iter", 1),
-                          ("min_blob_px_160", 1)):
+                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1),
+                          ("min_blob_px_160", 1), ("grasp_db_pixels", 0), ("grasp_train_demos", 1)):
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")

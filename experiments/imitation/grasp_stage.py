@@ -25,23 +25,28 @@ from sim.grasp_objects import GRASP_CLASSES
 _GRASP_SEED = 3000  # the demonstrations of the "demonstrations" database (PHMMs: 2000, validation: 1000)
 
 
-def hand_crop(frame: np.ndarray, hand_rc, skin, out_size: int, window: int = 0):
-    """The skin-segmented hand crop (images (1, S, S), masks, found) at the tracked hand (row, col) of
-    `frame` (H, W, 3) (GRASP §III-A); `window` > 0: only skin within that many pixels (a square) of the
-    hand, so that a skin-coloured sleeve or jacket joined to the hand does not become the crop."""
-    rc = np.asarray(hand_rc, np.float32)
+def hand_crop(frames: np.ndarray, hand_rc, skin, out_size: int, window: int = 0):
+    """The skin-segmented hand crops (images (B, S, S), masks, found (B,)) at the tracked hand (row, col)
+    (B, 2) of each of `frames` (B, H, W, 3) (GRASP §III-A); `window` > 0: only skin within that many
+    pixels (a square) of the hand, so that a skin-coloured sleeve or jacket joined to the hand does not
+    become the crop."""
+    frames = np.asarray(frames)
+    rc = np.asarray(hand_rc, np.float32).reshape(-1, 2)
     if window:
-        r0, c0 = int(round(rc[0])) - window, int(round(rc[1])) - window
-        padded = np.pad(frame, ((window, window), (window, window), (0, 0)))
-        frame = padded[r0 + window: r0 + 3 * window + 1, c0 + window: c0 + 3 * window + 1]
-        rc = rc - [r0, c0]
-    seg = hog_jax.segment(skin, frame[None], seed_points=rc[None], out_size=out_size)
+        corner = np.rint(rc).astype(int) - window                   # of each window, in frame pixels
+        padded = np.pad(frames, ((0, 0), (window, window), (window, window), (0, 0)))
+        offsets = np.arange(2 * window + 1)
+        rows = (corner[:, 0, None] + window + offsets)[:, :, None]
+        cols = (corner[:, 1, None] + window + offsets)[:, None, :]
+        frames = padded[np.arange(len(frames))[:, None, None], rows, cols]
+        rc = rc - corner
+    seg = hog_jax.segment(skin, frames, seed_points=rc, out_size=out_size)
     return np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)
 
 
 def crop_window(cfg: Config, settings: video.VideoSettings) -> int:
     """`cfg.grasp_window_frac` of the frame width in pixels (0: no window)."""
-    return round(cfg.grasp_window_frac * settings.width) if cfg.grasp_window_frac else 0
+    return round(cfg.grasp_window_frac * settings.width)
 
 
 def _study_config(cfg: Config):
@@ -59,18 +64,20 @@ def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin,
     window = crop_window(cfg, settings)
     demos = draw_demos(n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
     shifts = sorted({round(s * settings.fps) for s in cfg.grasp_frames_s})
-    out = []
+    frames, rc, grasps, index = [], [], [], []
     for i, demo in enumerate(demos):
         rec = render_demo(settings, demo)
         for shift in shifts:
             f = int(np.clip(rec.pickup_frames[0] + shift, 0, len(rec.left) - 1))
             if rec.ellipse_found[f, 0, 0]:
-                x, y = rec.ellipse_centre[f, 0, 0]
-                out.append((*hand_crop(rec.left[f], (y, x), chroma_skin, crop_size, window), demo.grasp, i))
-    if not out:
+                frames.append(rec.left[f])
+                rc.append(rec.ellipse_centre[f, 0, 0, ::-1])
+                grasps.append(demo.grasp)
+                index.append(i)
+    if not frames:
         raise ValueError(f"n: no hand visible at the pick-up of the {n} demonstrations")
-    images, masks, found = (np.concatenate([o[j] for o in out]) for j in range(3))
-    return images, masks, found, np.array([o[3] for o in out]), np.array([o[4] for o in out])
+    return (*hand_crop(np.stack(frames), np.stack(rc), chroma_skin, crop_size, window), np.array(grasps),
+            np.array(index))
 
 
 def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
@@ -85,7 +92,7 @@ def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
     images, masks, found, grasps, _ = demonstration_crops(cfg, settings, chroma_skin, cfg.grasp_train_demos,
                                                           cfg.seed + _GRASP_SEED)
     hcfg = hog_config(gcfg)
-    x = hog_features(images[found], masks[found], np.ones(int(found.sum()), bool), hcfg)
+    x = hog_features(images, masks, found, hcfg)[found]
     labels = np.array([GRASP_CLASSES.index(g) for g in grasps[found]])
     model = hog_jax.fit(x, labels, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
     return gcfg, Recogniser(hcfg, None, model, {}, None, gcfg.k, None)
@@ -102,7 +109,7 @@ def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording,
     window = crop_window(cfg, settings)
 
     def at(frame: int):
-        images, masks, found = hand_crop(rec.left[frame], hand_rc[frame], chroma_skin, gcfg.crop_size, window)
+        images, masks, found = hand_crop(rec.left[frame][None], hand_rc[frame], chroma_skin, gcfg.crop_size, window)
         if not found.any():
             return -1, np.full(4, np.nan)
         out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
