@@ -24,7 +24,7 @@ from hog_jax._checks import check_feature_range
 from lfd_common import as_array, check_int
 from lfd_common.sharding import check_mesh
 
-__all__ = ["LSHResult", "exact_search"]
+__all__ = ["LSHResult", "exact_search", "exact_search_checked"]
 
 _Q_CHUNK, _N_BLOCK = 64, 16384
 
@@ -110,7 +110,15 @@ def exact_search(data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"]
 
         res = exact_search_sharded(data, q, k, mesh)
         return LSHResult(*(a[0] for a in res)) if single else res
-    x = jnp.asarray(data)
-    idx, d = _exact(x, jnp.sum(x * x, axis=1), jnp.asarray(q), k, min(q.shape[0], _Q_CHUNK), min(N, _N_BLOCK))
-    res = LSHResult(idx, d, jnp.full((q.shape[0],), N, jnp.int32))
+    res = exact_search_checked(jnp.asarray(data), q, k)
     return LSHResult(*(a[0] for a in res)) if single else res
+
+
+def exact_search_checked(data: Float[Array, "N D"], queries: Float[ArrayLike, "Q D"], k: int) -> LSHResult:
+    """`exact_search` for a database validated before (a `knn.KNNModel`'s data) and queries (Q, D) that
+    passed `check_queries`, 1 <= k <= N: no per-call copy and range check of the whole database, which
+    would cost more than the search itself for a single query."""
+    N = data.shape[0]
+    q = jnp.asarray(queries)
+    idx, d = _exact(data, jnp.sum(data * data, axis=1), q, k, min(q.shape[0], _Q_CHUNK), min(N, _N_BLOCK))
+    return LSHResult(idx, d, jnp.full((q.shape[0],), N, jnp.int32))

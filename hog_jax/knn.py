@@ -39,7 +39,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from hog_jax._checks import check_feature_range
-from hog_jax.exact import exact_search
+from hog_jax.exact import check_queries, exact_search_checked
 from hog_jax.lsh import LSHIndex, query
 from lfd_common import as_array, check_int, check_real, euler_zyx_to_quat, quat_to_euler_zyx
 
@@ -221,20 +221,27 @@ def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike,
     label -1, scores 0, quat / euler NaN (no fallback to exact search; rerun those rows with
     index=None, or tune the index, if an answer is needed). ValueError naming the argument for
     invalid queries, k, or n_tables * n_per_table < k (`n_per_table`)."""
+    q, _ = check_queries(queries, model.data.shape[1])
+    check_int(k, "k", min_value=1, max_value=model.data.shape[0])
     if index is not None:
         if index.data.shape != model.data.shape:
             raise ValueError(f"index: built on {index.data.shape} points, the model holds {model.data.shape}")
-        res = query(index, queries, k, n_per_table, n_tables, max_rerank, n_probes)
+        res = query(index, q, k, n_per_table, n_tables, max_rerank, n_probes)
     else:
-        res = exact_search(model.data, queries, k)
-    idx, dist = res.indices, res.distances
-    if idx.ndim == 1:
-        idx, dist = idx[None], dist[None]
+        res = exact_search_checked(model.data, q, k)
+    return Prediction(*_vote_neighbours(model.labels, model.quats, model.sigma, model.n_classes, res.indices,
+                                        res.distances))
+
+
+@partial(jax.jit, static_argnames=("n_classes",))
+def _vote_neighbours(db_labels, db_quats, sigma, n_classes: int, idx, dist):
+    """Eqs. 3-4 from the neighbours' ids (Q, k) (-1: none) and distances (Q, k), in one compiled call
+    (as separate operations their dispatch cost more than an LSH query of one image)."""
     safe = jnp.maximum(idx, 0)
-    labels = jnp.where(idx >= 0, model.labels[safe], -1)
-    label, scores, quat = vote(labels, dist, model.quats[safe], model.sigma, model.n_classes)
+    labels = jnp.where(idx >= 0, db_labels[safe], -1)
+    label, scores, quat = vote(labels, dist, db_quats[safe], sigma, n_classes)
     found = idx[:, 0] >= 0  # neighbours come nearest first, the missing ones last
     label = jnp.where(found, label, -1)
-    has_orientation = jnp.any(model.quats != 0)
+    has_orientation = jnp.any(db_quats != 0)
     quat = jnp.where(has_orientation & found[:, None], quat, jnp.nan)
-    return Prediction(label, scores, quat, quat_to_euler(quat), idx, dist, found)
+    return label, scores, quat, quat_to_euler(quat), idx, dist, found

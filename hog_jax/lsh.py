@@ -12,7 +12,7 @@ contiguous run found with `searchsorted`; no Python dict.
 
 Query (`query`): per table the query's bucket run is read into a fixed buffer of C slots (a bucket
 with more than C points contributes a random C of them); the union over the T tables is de-duplicated
-by sorting, every candidate is re-ranked by its exact Euclidean distance and the k nearest are
+(a scatter into an N-row table; for very large databases by sorting), every candidate is re-ranked by its exact Euclidean distance and the k nearest are
 returned with their distances (-1 / inf where fewer than k were found), and the number of distinct
 candidates scanned. Queries are processed in batches by one jitted function.
 
@@ -136,13 +136,20 @@ def build_index(key: Key[Array, ""], data: Float[ArrayLike, "N D"], n_bits: int,
     return _build(k_perm, jnp.asarray(data), planes, jnp.int32(table_bits), chunk)
 
 
+_TABLE_DEDUP_ROWS_PER_SLOT = 64  # de-duplicate with an N-row table up to N <= 64 x the candidate slots
+
+
 def _candidates(index: LSHIndex, q, n_per_table: int, n_tables_used, n_rerank: int, n_probes: int):
-    """(D,) query -> (R,) distinct candidate ids, ascending, N-padded; and how many were distinct.
+    """(D,) query -> (R,) distinct candidate ids, N-padded; and how many were distinct.
 
     Per table the query's bucket and `n_probes` neighbouring buckets (`_probe_codes`) are read, C slots
-    each. The T (1 + P) C slots are compacted (cumsum + scatter, in table order) into a buffer of
-    G = min(T (1 + P) C, 4 R) slots, which is then sorted and de-duplicated: the sort costs O(G log G),
-    not O(T C log T C). When more than G slots are filled, the last tables' candidates are dropped.
+    each, T (1 + P) C = S slots in all. De-duplication depends on the database size (static):
+    * N <= 64 S: each id's first slot is found by a scatter-min into an N-row table (O(N + S); XLA's
+      comparison sort of the slots cost more than this up to several hundred thousand rows); the
+      first R distinct ids in table order are kept.
+    * larger N: the filled slots are compacted (cumsum + scatter, in table order) into a buffer of
+      G = min(S, 4 R) slots, which is sorted and de-duplicated (O(G log G), not O(S log S); when more
+      than G slots are filled, the last tables' candidates are dropped); the R smallest ids are kept.
     """
     T, K, _ = index.planes.shape
     N = index.data.shape[0]
@@ -153,19 +160,27 @@ def _candidates(index: LSHIndex, q, n_per_table: int, n_tables_used, n_rerank: i
     ok = ((pos < hi[..., None]) & (jnp.arange(T)[:, None, None] < n_tables_used)).reshape(-1)
     ids = jax.vmap(lambda order, p: order[p])(index.order, jnp.minimum(pos, N - 1)).reshape(-1)
     slots = ids.shape[0]
-    G = min(slots, 4 * n_rerank)
-    if G < slots:
-        slot = jnp.cumsum(ok) - 1
-        ids = jnp.full((G,), N, ids.dtype).at[jnp.where(ok, slot, G)].set(ids, mode="drop")
-    else:
+    if N <= _TABLE_DEDUP_ROWS_PER_SLOT * slots:
         ids = jnp.where(ok, ids, N)
+        slot = jnp.arange(slots, dtype=jnp.int32)
+        first_slot = jnp.full((N + 1,), slots, jnp.int32).at[ids].min(slot)
+        keep = ok & (first_slot[ids] == slot)
+        return _compact(ids, keep, n_rerank, N), jnp.sum(keep).astype(jnp.int32)
+    G = min(slots, 4 * n_rerank)
+    ids = _compact(ids, ok, G, N)
     ids = jnp.sort(ids)
     dup = jnp.concatenate([jnp.zeros((1,), bool), ids[1:] == ids[:-1]])
     ids = jnp.where(dup, N, ids)
     n_distinct = jnp.sum(ids < N).astype(jnp.int32)
-    if n_rerank < G:  # keep the first R distinct ids
-        ids = jnp.sort(ids)[:n_rerank]
+    if n_rerank < G:
+        ids = _compact(ids, ids < N, n_rerank, N)
     return ids, n_distinct
+
+
+def _compact(ids, keep, size: int, fill: int):
+    """The kept ids (S,) in their order, in a buffer of `size`, padded with `fill` (the rest dropped)."""
+    at = jnp.where(keep, jnp.cumsum(keep) - 1, size)
+    return jnp.full((size,), fill, ids.dtype).at[at].set(ids, mode="drop")
 
 
 def _query_one(index: LSHIndex, q, k: int, n_per_table: int, n_tables_used, n_rerank: int, n_probes: int):
@@ -202,8 +217,9 @@ def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, "
     P buckets whose codes differ from the query's in one bit, the bits of the hyperplanes nearest the
     query first (multi-probe LSH, Lv et al. 2007; 0 <= P <= K; 0: the query's bucket only).
     max_rerank: re-rank at most this many distinct candidates (R; default T (1 + P) C, i.e. all; when
-    more are found, the R with the smallest ids are kept and n_scanned reports R); at most 4 R bucket
-    slots are collected, in table order.
+    more are found, n_scanned reports R and which R are kept depends on the database size: up to
+    64 T (1 + P) C rows the first R in table order, beyond that the R smallest ids of at most 4 R bucket
+    slots collected in table order; see `_candidates`).
     Returns an `LSHResult`; a query whose buckets hold fewer than k points gets -1 / inf in the
     missing places (a query with none at all: every index -1). ValueError naming the argument when
     n_tables * n_per_table < k (the candidate slots cannot hold k neighbours: `n_per_table`).

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from hog_jax import build_index, query, recall_at_k, tune
+from hog_jax import lsh as lsh_module
 from hog_jax.lsh import _bucket
 
 
@@ -184,3 +185,28 @@ def test_multi_probe_reads_the_one_bit_neighbour_buckets(setup):
     tuned = [tune(jax.random.key(5), data, q, k=10, target_recall=1.0, n_bits_grid=(8,), n_tables_grid=(2,),
                   n_probes=p) for p in (0, 3)]
     assert tuned[1].recall > tuned[0].recall and tuned[1].max_rerank == 2 * 64 * 4
+
+
+@pytest.mark.parametrize("rows_per_slot", [64, 0], ids=["table", "sort"])
+def test_candidates_are_the_distinct_bucket_members_in_either_deduplication(setup, monkeypatch, rows_per_slot):
+    """Both de-duplications of `_candidates` (an N-row table for moderate N, sorting beyond) give the
+    distinct members of the read bucket slots (brute force in NumPy); when R is smaller than that, the
+    table keeps the first R in table order and the sort the R smallest ids of its first 4 R slots."""
+    monkeypatch.setattr(lsh_module, "_TABLE_DEDUP_ROWS_PER_SLOT", rows_per_slot)
+    data, q, _ = setup
+    T, C = 4, 16
+    idx = build_index(jax.random.key(6), data, n_bits=6, n_tables=T)
+    keys, order = np.asarray(idx.keys), np.asarray(idx.order)
+    for x in q[:5]:
+        buckets = np.asarray(lsh_module._bucket(lsh_module._codes(jax.numpy.asarray(x[None]), idx.planes, idx.center),
+                                                6, idx.table_bits))[:, 0]
+        slots = np.concatenate([order[t][keys[t] == buckets[t]][:C] for t in range(T)])
+        in_order = list(dict.fromkeys(slots.tolist()))  # distinct, first appearance first
+        ids, n = lsh_module._candidates(idx, jax.numpy.asarray(x), C, jax.numpy.int32(T), T * C, 0)
+        ids = np.asarray(ids)
+        assert int(n) == len(in_order) and sorted(ids[ids < len(data)].tolist()) == sorted(in_order)
+        R = max(1, len(in_order) // 2)
+        ids, _ = lsh_module._candidates(idx, jax.numpy.asarray(x), C, jax.numpy.int32(T), R, 0)
+        # the sort reads at most 4 R filled slots, in table order
+        want = in_order[:R] if rows_per_slot else sorted(set(slots[:4 * R].tolist()))[:R]
+        assert sorted(np.asarray(ids)[np.asarray(ids) < len(data)].tolist()) == sorted(want)

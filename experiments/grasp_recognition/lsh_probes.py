@@ -5,7 +5,10 @@
 The best preset's database and metric; its query-like validation images (own seed, own hand, every
 nuisance, the adapted skin model) split in halves: `hog_jax.tune` picks (K, T) on the first half for each
 probe count and target recall, and the index is measured on the second half: recall@k against exact
-search and query time (median of 5, the half's queries in one batch), beside exact search.
+search and query time (median of 5, the half's queries in one batch), beside exact search. Then the
+latency of one image at a time (`hog_jax.predict` on a single (D,) query, as a live camera would ask:
+neighbours, vote and orientation), median over `N_SINGLE` held-out queries, for the best preset's index
+(4 probes, target 0.9) and for exact search.
 """
 from __future__ import annotations
 
@@ -20,6 +23,8 @@ from experiments.grasp_recognition.config import PRESETS, Config
 from experiments.grasp_recognition.recogniser import build_recogniser, features
 from experiments.grasp_recognition.stages import database, validation_crops
 from lfd_common import enable_compilation_cache
+
+N_SINGLE = 200  # held-out queries timed one at a time
 
 
 def main() -> None:
@@ -47,6 +52,16 @@ def main() -> None:
                   flush=True)
     ms = 1e3 * time_call(lambda: hog_jax.exact_search(rec.model.data, held_out, cfg.k).indices, 5).median_s
     print(f"exact search: {ms / len(held_out):.3f} ms per query")
+    t = hog_jax.tune(jax.random.key(2), rec.model.data, q[:half], k=cfg.k, target_recall=0.9, n_probes=4)
+    index = hog_jax.build_index(jax.random.key(3), rec.model.data, t.n_bits, t.n_tables)
+    lsh = {"index": index, "n_per_table": t.n_per_table, "n_tables": t.n_tables, "max_rerank": t.max_rerank,
+           "n_probes": 4}
+    singles = held_out[:N_SINGLE]
+    for name, kwargs in (("LSH, 4 probes", lsh), ("exact", {})):
+        times = [time_call(lambda x=x: hog_jax.predict(rec.model, x, cfg.k, **kwargs).label, 3).median_s
+                 for x in singles]
+        print(f"one image at a time, {name}: median {1e3 * np.median(times):.3f} ms, 90th percentile "
+              f"{1e3 * np.percentile(times, 90):.3f} ms ({len(singles)} queries)", flush=True)
 
 
 if __name__ == "__main__":
