@@ -111,6 +111,8 @@ def recognition_stage(cfg: Config, s: Setup) -> tuple[StageResult, dict]:
     for st, sname in enumerate(("stage0", "stage1", "stage2")):
         sel = large.stage == st
         m[f"accuracy_large_{sname}"] = accuracy(res["large"].labels[sel], large.labels[sel])
+    # the key: on X's correctly classified images, like the plain `orientation_geodesic_error_deg`
+    m["orientation_geodesic_error_deg_correct"] = m["orientation_geodesic_error_deg_X_correct"]
     m["lsh_recall_at_k_test_queries"] = m.pop("lsh_recall_at_k_large")
     m.pop("lsh_recall_at_k_X")
     mats = {name: sc.mats[name] for name in ("X", "Xp", "Xpp", "large")}
