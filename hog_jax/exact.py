@@ -43,26 +43,28 @@ class LSHResult(NamedTuple):
 def _exact(data, sq, queries, k: int, q_chunk: int, n_block: int):
     N, D = data.shape
     n_blocks = -(-N // n_block)
-    pad = n_blocks * n_block - N
-    blocks = jnp.concatenate([data, jnp.zeros((pad, D), data.dtype)]).reshape(n_blocks, n_block, D)
-    sq_b = jnp.concatenate([sq, jnp.full((pad,), jnp.inf, sq.dtype)]).reshape(n_blocks, n_block)
     kb = min(k, n_block)
 
     def one_chunk(qc):  # (c, D) -> top k over all blocks, merged block by block
         qq = jnp.sum(qc * qc, axis=1, keepdims=True)
 
-        def step(carry, blk):
+        def step(carry, b):
             best_d, best_i = carry
-            x, s, b = blk
+            # the last block is read ending at row N (no padded copy of the database), its rows that the
+            # block before already covered masked out
+            start = jnp.minimum(b * n_block, N - n_block)
+            x = jax.lax.dynamic_slice_in_dim(data, start, n_block)
+            s = jnp.where(start + jnp.arange(n_block) >= b * n_block,
+                          jax.lax.dynamic_slice_in_dim(sq, start, n_block), jnp.inf)
             d2 = qq - 2.0 * qc @ x.T + s[None]
             neg, pos = jax.lax.top_k(-d2, kb)
             cand_d = jnp.concatenate([best_d, -neg], axis=1)
-            cand_i = jnp.concatenate([best_i, (pos + b * n_block).astype(jnp.int32)], axis=1)
+            cand_i = jnp.concatenate([best_i, (pos + start).astype(jnp.int32)], axis=1)
             neg2, sel = jax.lax.top_k(-cand_d, k)
             return (-neg2, jnp.take_along_axis(cand_i, sel, axis=1)), None
 
         init = (jnp.full((qc.shape[0], k), jnp.inf, data.dtype), jnp.full((qc.shape[0], k), -1, jnp.int32))
-        (d2, idx), _ = jax.lax.scan(step, init, (blocks, sq_b, jnp.arange(n_blocks)))
+        (d2, idx), _ = jax.lax.scan(step, init, jnp.arange(n_blocks))
         # exact distances of the k found (the expanded form above loses precision for near points)
         diff = data[jnp.maximum(idx, 0)] - qc[:, None, :]
         d = jnp.sqrt(jnp.sum(diff * diff, axis=-1))
@@ -120,5 +122,10 @@ def exact_search_checked(data: Float[Array, "N D"], queries: Float[ArrayLike, "Q
     would cost more than the search itself for a single query."""
     N = data.shape[0]
     q = jnp.asarray(queries)
-    idx, d = _exact(data, jnp.sum(data * data, axis=1), q, k, min(q.shape[0], _Q_CHUNK), min(N, _N_BLOCK))
+    idx, d = _exact_plain(data, q, k, min(q.shape[0], _Q_CHUNK), min(N, _N_BLOCK))
     return LSHResult(idx, d, jnp.full((q.shape[0],), N, jnp.int32))
+
+
+@partial(jax.jit, static_argnames=("k", "q_chunk", "n_block"))
+def _exact_plain(data, queries, k: int, q_chunk: int, n_block: int):
+    return _exact(data, jnp.sum(data * data, axis=1), queries, k, q_chunk, n_block)

@@ -37,6 +37,9 @@ def test_exact_search_across_blocks():
     data = rng.normal(size=(40_000, 4)).astype(np.float32)
     q = rng.normal(size=(5, 4)).astype(np.float32)
     np.testing.assert_array_equal(np.asarray(exact_search(data, q, 5).indices), brute_knn(data, q, 5)[0])
+    # queries at rows that the last block (read ending at row N) shares with the block before: each row once
+    near = data[[23_616, 30_000, 32_767, 32_768, 39_999]] + 1e-4
+    np.testing.assert_array_equal(np.asarray(exact_search(data, near, 5).indices), brute_knn(data, near, 5)[0])
 
 
 def test_sigma_eq5_by_hand():
