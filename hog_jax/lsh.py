@@ -12,9 +12,9 @@ contiguous run found with `searchsorted`; no Python dict.
 
 Query (`query`): per table the query's bucket run is read into a fixed buffer of C slots (a bucket
 with more than C points contributes a random C of them); the union over the T tables is de-duplicated
-(a scatter into an N-row table; for very large databases by sorting), every candidate is re-ranked by its exact Euclidean distance and the k nearest are
-returned with their distances (-1 / inf where fewer than k were found), and the number of distinct
-candidates scanned. Queries are processed in batches by one jitted function.
+(a scatter into an N-row table; for very large databases by sorting), every candidate is re-ranked by
+its exact Euclidean distance and the k nearest are returned with their distances (-1 / inf where fewer
+than k were found), and the number of distinct candidates scanned. Queries are processed in batches by one jitted function.
 
 Parameters (`tune`): the paper learns K and T from the data for its epsilon; here the autotuner
 measures recall@k against exact search on held-out queries for a grid of K and T (the first t tables
