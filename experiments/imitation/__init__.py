@@ -14,7 +14,8 @@ Per demonstration (`stages.run_demo`, `pipeline`):
    and end detected, class and parameter after a latency of `online_window_s`; Humanoids 2008
    §III): point or pick-and-place, and the target on the table, snapped to the nearest object;
 3. the grasp moment and the put-down from the hand's speed along the movement; the place = where the
-   object stood plus the hand's displacement between them;
+   object stood plus its own displacement between the scene at rest before and after the movement
+   (`place`), or, where the video does not show it, plus the hand's displacement between them;
 4. the grasp class from the hand image at the grasp moment (`grasp_stage`; GRASP §III, eq. 3: HOG, kNN
    over hand crops of demonstrations of their own seed, or over the grasp study's rendered database,
    which also gives the hand's orientation, eq. 4);
@@ -24,7 +25,9 @@ Settings (tracker offset, PHMM observation noise, movement threshold) are chosen
 demonstrations of their own seed; the PHMMs are trained on kinematics of a third seed.
 
 Outputs: metrics.json (`n_demonstrations`, `action_accuracy`, `target_error_cm`, `grasp_accuracy`,
-`task_success_rate`, `failures_by_stage`, `runtime_s`, per-stage times, ...), report.md,
+`task_success_rate`: the demonstrated object within 5 cm of the demonstrated place, upright, whatever
+grasp the robot used; `task_success_all_recognised_rate`: that and everything recognised right;
+`failures_by_stage`, `runtime_s`, per-stage times, ...), report.md,
 side_by_side.mp4 (the person | the robot, or the recognised scene where no robot ran).
 
 API: `Config`, `PRESETS`, `Demo`, `draw_demos`, `render_demo`, `prepare` (the models), `run_demo`,

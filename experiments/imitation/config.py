@@ -51,6 +51,10 @@ class Config:
     robot_hand: str = "barrett"
     approach: str = "phmm"               # the arm's approach: the synthesised reach ("phmm") or a straight line
     place_tolerance_m: float = 0.05      # a task succeeds with the right object within this of the place, upright
+    # a transfer's place from the object's own displacement in the video (`place.scene_place`; else, and where
+    # that finds nothing, from the hand's), the scene at rest over place_rest_s before and after the movement
+    place_from_scene: bool = True
+    place_rest_s: float = 0.5
 
     def __post_init__(self):
         if self.video_preset not in video.PRESETS:
@@ -61,7 +65,7 @@ class Config:
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
-        for name in ("online_window_s", "median_s", "merge_gap_s"):
+        for name in ("online_window_s", "median_s", "merge_gap_s", "place_rest_s"):
             check_real(getattr(self, name), name, min_value=0.0, max_value=10.0)
         for name in ("noise_sigmas_m", "online_thresholds_m"):
             values = getattr(self, name)
@@ -81,7 +85,7 @@ class Config:
             check_real(v, "grasp_frames_s", min_value=-10.0, max_value=10.0)
         if self.approach not in ("phmm", "straight"):
             raise ValueError(f"approach: expected 'phmm' or 'straight', got {self.approach!r}")
-        for name in ("robot", "coarse_scale"):
+        for name in ("robot", "coarse_scale", "place_from_scene"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name}: expected a bool, got {getattr(self, name)!r}")
 

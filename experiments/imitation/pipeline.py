@@ -239,7 +239,8 @@ class Recognised(NamedTuple):
     target_xy (2,) the PHMM's target (NaN if none), target (the nearest object, -1 if none), start / end
     of the movement (frames, -1), grasp_frame and putdown_frame (-1 for pointing), place_xy (2,) (the
     hand-over spot for pointing), grasp (a `GRASP_CLASSES` class, -1: none), grasp_quat (4,) (the hand's
-    orientation relative to the camera, NaN if none)."""
+    orientation relative to the camera, NaN if none), place_from ("scene": the object's own displacement in
+    the video, `experiments.imitation.place`; "hand": the hand's; "" for pointing)."""
 
     kind: str | None
     target_xy: np.ndarray
@@ -251,6 +252,7 @@ class Recognised(NamedTuple):
     place_xy: np.ndarray
     grasp: int
     grasp_quat: np.ndarray
+    place_from: str = ""
 
 
 def movement(rec_online, stream: np.ndarray, merge_gap: int):
@@ -304,11 +306,15 @@ def synthesised_reach(reach_phmm: P.PHMM, object_xy: np.ndarray, length: int = 5
 
 
 def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, objects_xy: np.ndarray,
-                   handover_xy, grasp=None, merge_gap: int = 10, reach_phmm: P.PHMM | None = None) -> Recognised:
+                   handover_xy, grasp=None, merge_gap: int = 10, reach_phmm: P.PHMM | None = None,
+                   scene=None) -> Recognised:
     """Action, target, grasp moment, put-down and place of one tracked demonstration; `grasp`
     (frame index -> (class, quat)) recognises the hand at the grasp moment (None: not recognised);
     `reach_phmm` (with its observation noise) reads a transfer's target from its reach (`reach_target`;
-    None: from the whole movement)."""
+    None: from the whole movement); `scene` ((start, end, old_xy) -> `place.ScenePlace`,
+    `place.place_reader`) reads the place from the object's own displacement in the video, the hand's
+    displacement from the grasp moment to the put-down standing where it finds nothing (None: always
+    the hand's)."""
     objects_xy = np.asarray(objects_xy, float)
     if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
         raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
@@ -328,6 +334,9 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     if from_reach is not None:
         xy = from_reach
         target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
-    place = objects_xy[target] + (stream[p, :2] - stream[g, :2])
+    place, place_from = objects_xy[target] + (stream[p, :2] - stream[g, :2]), "hand"
+    seen = scene(s, e, objects_xy[target]) if scene is not None else None
+    if seen is not None and seen.found:
+        place, place_from = seen.xy, "scene"
     cls, quat = grasp(g) if grasp is not None else (-1, np.full(4, np.nan))
-    return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float))
+    return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float), place_from)

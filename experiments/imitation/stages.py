@@ -21,6 +21,7 @@ from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
 from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser
+from experiments.imitation.place import place_reader
 from lfd_common import cache_dir, enable_compilation_cache
 from sim.grasp_objects import GRASP_CLASSES
 
@@ -168,6 +169,13 @@ def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, phmms, render: bool = 
 
 
 # ------------------------------------------------------------------------------------------ per demo
+def scene_reader(cfg: Config, rec, tracked: pl.Tracked):
+    """`place.place_reader` on the recording's left view (None without `cfg.place_from_scene`)."""
+    if not cfg.place_from_scene:
+        return None
+    return place_reader(rec.left, rec.P_left, rec.fps, tracked.start, cfg.online_window, cfg.place_rest_s)
+
+
 def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = True, render_robot: bool = False) -> dict:
     """One demonstration through the loop: the recognised action, target, grasp and place beside the
     truth, the stage that failed first (None: none), the robot's outcome and per-stage times (s)."""
@@ -181,7 +189,7 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     t0 = time.perf_counter()
     grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked.hand_rc, settings)
     r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach)
+                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach, scene=scene_reader(cfg, rec, tracked))
     times["recognition_s"] = time.perf_counter() - t0
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
@@ -198,18 +206,29 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
               "target": r.target == demo.target,
               "grasp": demo.kind != "transfer" or r.grasp == demo.grasp,
               "place": demo.kind != "transfer" or out["place_error_cm"] <= cfg.place_tolerance_m * 100}
-    failed = next((s for s in STAGES if not checks[s]), None)
-    out["robot"] = None
-    if robot and cfg.robot and r.kind is not None:
+    wrong = next((s for s in STAGES if not checks[s]), None)
+    out["robot"], out["recognised_right"], out["task_success"] = None, wrong is None, False
+    ran = robot and cfg.robot and r.kind is not None
+    if ran:
         t0 = time.perf_counter()
         res = robot_task(cfg, demo, r, models.phmms, render=render_robot)
         times["robot_s"] = time.perf_counter() - t0
-        if res is not None:
-            out["robot"] = res
-            if failed is None and not res.success:
-                failed = f"robot_{res.failed_stage or 'outcome'}"
+        out["robot"], out["task_success"] = res, task_done(cfg, demo, r, res)
+    failed = wrong  # a failed task: the first recognition stage that went wrong, else the robot's stage
+    if out["task_success"]:
+        failed = None
+    elif failed is None and ran:
+        failed = f"robot_{out['robot'].failed_stage or 'outcome'}"
     out["failed_stage"], out["times"] = failed, times
     return out
+
+
+def task_done(cfg: Config, demo: Demo, r: pl.Recognised, res: sim.TaskResult) -> bool:
+    """The issue's task success: the demonstrated object (the robot handles the recognised one) ended
+    within `cfg.place_tolerance_m` of the demonstrated place (the hand-over spot for pointing), upright
+    and released; whatever grasp class the robot used."""
+    off = np.linalg.norm(np.asarray(res.object_pos, float)[:2] - np.asarray(demo.place_xy, float))
+    return bool(r.target == demo.target and res.upright and res.released and off <= cfg.place_tolerance_m)
 
 
 def summarise(results: list[dict], robot_ran: bool) -> dict:
@@ -242,9 +261,12 @@ def summarise(results: list[dict], robot_ran: bool) -> dict:
                                               if np.isfinite(r["pickup_error_frames"])]),
         "putdown_error_frames_mean_abs": mean([abs(r["putdown_error_frames"]) for r in transfers
                                                if np.isfinite(r["putdown_error_frames"])]),
-        "recognition_success_rate": mean([r["failed_stage"] is None or r["failed_stage"].startswith("robot")
-                                          for r in results]),
-        "task_success_rate": mean([r["failed_stage"] is None for r in results]) if robot_ran else None,
+        "place_from_scene_rate": mean([r["recognised"].place_from == "scene" for r in transfers
+                                       if r["kind_recognised"] == "transfer"]),
+        "recognition_success_rate": mean([r["recognised_right"] for r in results]),
+        "task_success_rate": mean([r["task_success"] for r in results]) if robot_ran else None,
+        "task_success_all_recognised_rate": mean([r["recognised_right"] and r["task_success"] for r in results])
+        if robot_ran else None,
         "robot_ran": bool(robot) and robot_ran, "robot_success_rate": mean([bool(x.success) for x in robot]),
         "failures_by_stage": failures,
         "stage_time_s": {k: v / max(n, 1) for k, v in times.items()},

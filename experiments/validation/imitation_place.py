@@ -2,8 +2,10 @@
 seed of their own (the grasp stage's validation stream, not the evaluated ones) through the loop's
 front end, online PHMMs and validation choices; prints the median place error, the share within the
 task's 5 cm, and the mean absolute pick-up / put-down frame errors, over the transfers recognised as
-one, with the place read from the tracked hand (`pipeline.recognise_demo`) and, for comparison, from
-the renderer's true hand at the detected and at the true pick-up and put-down frames.
+one, with the place read from the tracked hand (`pipeline.recognise_demo` without a scene reader), from
+the object's displacement in the video where it is found and the hand's elsewhere (the loop's
+`stages.scene_reader`), and, for comparison, from the renderer's true hand at the detected and at the
+true pick-up and put-down frames.
 
     python experiments/validation/imitation_place.py [--preset paper] [--n 24]
 """
@@ -15,7 +17,7 @@ import phmm_jax as P
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import demo_track, draw_demos
-from experiments.imitation.stages import _tracked_demo, phmm_models, skin_models, validation_stage
+from experiments.imitation.stages import _tracked_demo, phmm_models, scene_reader, skin_models, validation_stage
 from experiments.validation.imitation_grasp import _SEED_OFFSET
 from lfd_common import enable_compilation_cache
 
@@ -43,18 +45,27 @@ def main() -> None:
                               merge_gap=cfg.merge_gap, reach_phmm=reach)
         if r.kind != "transfer":
             continue
+        seen = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+                                 merge_gap=cfg.merge_gap, reach_phmm=reach, scene=scene_reader(cfg, rec, tracked))
         x, _ = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
         true_g, true_p = int(rec.pickup_frames[0]) - 1, int(rec.putdown_frames[0])
         start = np.asarray(demo.objects_xy)[demo.target]
         rows.append([np.linalg.norm(r.place_xy - demo.place_xy) * 100,
                      np.linalg.norm(start + x[r.putdown_frame, :2] - x[r.grasp_frame, :2] - demo.place_xy) * 100,
                      np.linalg.norm(start + x[true_p, :2] - x[true_g, :2] - demo.place_xy) * 100,
-                     abs(r.grasp_frame - true_g), abs(r.putdown_frame - true_p)])
+                     np.linalg.norm(seen.place_xy - demo.place_xy) * 100,
+                     abs(r.grasp_frame - true_g), abs(r.putdown_frame - true_p), seen.place_from == "scene"])
     rows = np.asarray(rows)
-    for k, name in enumerate(("tracked hand, detected frames", "true hand, detected frames", "true hand, true frames")):
+    names = ("tracked hand, detected frames", "true hand, detected frames", "true hand, true frames",
+             "the object in the video where found, else the tracked hand")
+    scene = rows[:, 6] > 0
+    print(f"the object's displacement found in {scene.sum():.0f} of {len(rows)}: there median "
+          f"{np.median(rows[scene, 3]) if scene.any() else np.nan:.1f} cm, within 5 cm {np.mean(rows[scene, 3] <= 5):.2f}; "
+          f"the tracked hand on the same: median {np.median(rows[scene, 0]) if scene.any() else np.nan:.1f} cm")
+    for k, name in enumerate(names):
         print(f"{name}: place error median {np.median(rows[:, k]):.1f} cm, within 5 cm {np.mean(rows[:, k] <= 5):.2f} "
               f"({len(rows)} of {len(demos)} recognised as transfers)")
-    print(f"pick-up / put-down frames off: {rows[:, 3].mean():.1f} / {rows[:, 4].mean():.1f}")
+    print(f"pick-up / put-down frames off: {rows[:, 4].mean():.1f} / {rows[:, 5].mean():.1f}")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,146 @@
+"""Where a transfer put its object, read from the scene instead of the hand (issue 21, "The loop").
+
+The hand's displacement between the grasp moment and the put-down is what the tracker is worst at
+(the hand holds the object there; README, issue 21: 16.4 cm median on validation transfers, against
+1.7 cm for the true hand). The object itself stands still before the movement and after it, in many
+frames. The left view at rest before the movement (B) and after it (A) differ where the object left
+and where it arrived, and where the person's posture differs. The old silhouette is the changed
+region nearest the known old position, the new one the other changed region most like it (its area,
+and A's mean colour there against B's in the old one), and the place is the old position plus the
+displacement of the two centroids on a horizontal plane, at the height where the old centroid's ray
+passes over the known old position (the paper assumes the objects' poses are known before the
+demonstration; GRASP §VI). Where an object is moved behind another, or so little that the two
+silhouettes touch, nothing is found: the caller falls back to the hand.
+
+Chosen on the grasp stage's 24 validation transfers of the paper preset (true rest frames, scratch):
+found in 17, within 5 cm of the place in 14 (median 1.9 cm); the old and new silhouettes gated by the
+empty scene (so that the person's posture changes drop out): found 16, within 5 cm 11 (the part of a
+tall object in front of the person was cut off); largest area ratio 1.6 / 2.0 / 2.5: within 5 cm 9 /
+14 / 14.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+
+class ScenePlace(NamedTuple):
+    """The place read from the scene: xy (2,) world m (NaN if not found), found, and why not
+    (`reason`: "" when found)."""
+
+    xy: np.ndarray
+    found: bool
+    reason: str
+
+
+def _not_found(reason: str) -> ScenePlace:
+    return ScenePlace(np.full(2, np.nan), False, reason)
+
+
+def pixel_ray(P: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(camera centre (3,), direction (3,)) of the ray through pixel uv = (column, row) of the camera
+    matrix P (3, 4), world coordinates."""
+    M, p4 = P[:, :3], P[:, 3]
+    return -np.linalg.solve(M, p4), np.linalg.solve(M, np.array([uv[0], uv[1], 1.0]))
+
+
+def project(P: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """The pixel (column, row) (2,) of the world point X (3,)."""
+    x = P @ np.r_[X, 1.0]
+    return x[:2] / x[2]
+
+
+def _on_plane(P, uv, height: float) -> np.ndarray:
+    centre, direction = pixel_ray(P, uv)
+    return (centre + (height - centre[2]) / direction[2] * direction)[:2]
+
+
+def _height_over(P, uv, xy) -> float:
+    """The height at which the ray through uv passes nearest (in x, y) over the table point xy (2,)."""
+    centre, direction = pixel_ray(P, uv)
+    d = direction[:2]
+    lam = float(d @ (np.asarray(xy) - centre[:2]) / (d @ d))
+    return float(centre[2] + lam * direction[2])
+
+
+def _changed(before: np.ndarray, after: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(B, A) the median views (H, W, 3) float, B's overall brightness matched to A's (the scene's
+    lights vary), and where they differ by more than `threshold` (summed over channels)."""
+    b, a = (np.median(x.astype(np.float32), axis=0) for x in (before, after))
+    gain = np.median(a.sum(-1) + 1.0) / np.median(b.sum(-1) + 1.0)
+    return gain * b, a, np.abs(a - gain * b).sum(-1) > threshold
+
+
+def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, old_xy: np.ndarray, old_height: float,
+                threshold: float = 40.0, min_px: int = 20, max_area_ratio: float = 2.5,
+                max_colour: float = 60.0) -> ScenePlace:
+    """The new table position (2,) of an object that stood at `old_xy` (world m) and was moved.
+
+    before, after: (n, H, W, 3) uint8 frames of one view with the scene at rest before the movement
+    and after it; P (3, 4) that view's camera matrix; old_height: a height (world m) near the
+    object's middle, where its old position is looked up in the image. threshold: the change of a
+    pixel (0-765, channels summed) that counts; min_px: the smallest changed region kept (pixels);
+    max_area_ratio and max_colour (mean RGB distance) bound how unlike its old silhouette the new one
+    may be. Not found (a flagged result, never a guess) where the old or the new silhouette is not
+    seen (module docstring)."""
+    for name, frames in (("before", before), ("after", after)):
+        if frames.ndim != 4 or frames.shape[-1] != 3 or len(frames) == 0:
+            raise ValueError(f"{name}: expected (n >= 1, H, W, 3) frames, got {frames.shape}")
+    if before.shape[1:] != after.shape[1:]:
+        raise ValueError(f"after: frame size {after.shape[1:]} differs from before's {before.shape[1:]}")
+    P, old_xy = np.asarray(P, np.float64), np.asarray(old_xy, np.float64)
+    if P.shape != (3, 4) or not np.isfinite(P).all():
+        raise ValueError(f"P: expected a finite (3, 4) camera matrix, got {P.shape}")
+    if old_xy.shape != (2,) or not np.isfinite(old_xy).all():
+        raise ValueError(f"old_xy: expected 2 finite values, got {old_xy!r}")
+    b, a, changed = _changed(before, after, threshold)
+    changed = cv2.morphologyEx(changed.astype(np.uint8), cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+    n, labels, stats, centres = cv2.connectedComponentsWithStats(changed, connectivity=8)
+    area = stats[:, cv2.CC_STAT_AREA]
+    regions = [k for k in range(1, n) if area[k] >= min_px]
+    if len(regions) < 2:
+        return _not_found("fewer than two changed regions: the object's old or new silhouette is not seen")
+    old_px = project(P, np.r_[old_xy, old_height])
+    old = min(regions, key=lambda k: np.linalg.norm(centres[k] - old_px))
+    old_colour = b[labels == old].mean(axis=0)
+    best, best_score = None, np.inf
+    for k in regions:
+        ratio = area[k] / area[old]
+        colour = float(np.linalg.norm(a[labels == k].mean(axis=0) - old_colour))
+        if k != old and 1 / max_area_ratio <= ratio <= max_area_ratio and colour <= max_colour:
+            score = abs(np.log(ratio)) + colour / max_colour
+            if score < best_score:
+                best, best_score = k, score
+    if best is None:
+        return _not_found("no changed region like the object's old silhouette")
+    height = _height_over(P, centres[old], old_xy)
+    moved = _on_plane(P, centres[best], height) - _on_plane(P, centres[old], height)
+    return ScenePlace(old_xy + moved, True, "")
+
+
+def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int, margin: int, rest_s: float = 0.5,
+                 height: float = 0.05, min_px_320: int = 20):
+    """A function (movement start, end, old_xy (2,)) -> `ScenePlace` reading a transfer's place from
+    `frames` (T, H, W, 3) of the view with camera matrix P (`scene_place`): the scene at rest over
+    `rest_s` seconds ending `margin` frames before the detected start (not before `first_frame`),
+    and over the last `rest_s` seconds of the recording, from `margin` frames after the detected end
+    (the online detector reports a movement some frames after it begins and ends). height: above
+    the table top, where an object's old position is looked up; min_px_320: `scene_place`'s min_px
+    for a 320 x 240 frame, scaled with the frame's area."""
+    from experiments.imitation.demonstrations import table_z
+
+    n_frames = len(frames)
+    span = max(3, round(rest_s * fps))
+    min_px = max(4, round(min_px_320 * frames.shape[1] * frames.shape[2] / (320 * 240)))
+
+    def read(start: int, end: int, old_xy: np.ndarray) -> ScenePlace:
+        b1 = start - margin
+        b0 = max(first_frame, b1 - span)
+        a0 = max(end + margin + 1, n_frames - span)
+        if b1 - b0 < 3 or n_frames - a0 < 3:
+            return _not_found("fewer than 3 frames at rest before or after the movement")
+        return scene_place(frames[b0:b1], frames[a0:], P, old_xy, table_z() + height, min_px=min_px)
+
+    return read

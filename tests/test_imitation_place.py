@@ -1,0 +1,93 @@
+"""A transfer's place read from the object's own displacement in the video (`experiments.imitation.place`),
+on a synthetic scene with a known camera: a box moved on a table, the lights 25 % brighter afterwards,
+and a change of the person's posture beside it."""
+import cv2
+import numpy as np
+import pytest
+
+from experiments.imitation.place import pixel_ray, place_reader, project, scene_place
+
+TABLE_Z = 0.75
+BOX = np.array([0.06, 0.06, 0.12])  # x, y, z extent (m) of the moved object
+
+
+def _camera() -> np.ndarray:
+    """A 320 x 240 camera in front of the table, looking down at it (world z up)."""
+    centre, aim = np.array([0.0, 0.9, 1.25]), np.array([0.0, -0.35, TABLE_Z])
+    forward = (aim - centre) / np.linalg.norm(aim - centre)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    R = np.stack([right, down, forward])
+    K = np.array([[300.0, 0, 160], [0, 300.0, 120], [0, 0, 1]])
+    return K @ np.c_[R, -R @ centre]
+
+
+def _draw_box(img: np.ndarray, P: np.ndarray, xy, colour) -> None:
+    corners = [np.r_[xy[0] + sx * BOX[0] / 2, xy[1] + sy * BOX[1] / 2, TABLE_Z + sz * BOX[2]]
+               for sx in (-1, 1) for sy in (-1, 1) for sz in (0, 1)]
+    hull = cv2.convexHull(np.round([project(P, c) for c in corners]).astype(np.int32))
+    cv2.fillConvexPoly(img, hull, colour)
+
+
+def _frames(P, old_xy, new_xy, n=5, hidden=False):
+    rng = np.random.default_rng(0)
+    table = np.zeros((240, 320, 3), np.uint8)
+    table[:] = (120, 80, 50)
+    before = table.copy()
+    _draw_box(before, P, old_xy, (210, 210, 200))
+    after = table.copy()
+    if not hidden:
+        _draw_box(after, P, new_xy, (210, 210, 200))
+    after[40:52, 250:300] = (200, 150, 120)  # the person's forearm rests elsewhere afterwards
+    after = np.clip(after.astype(np.float64) * 1.25, 0, 255)  # the lights
+    noisy = lambda img: np.clip(img[None] + rng.normal(0, 3, (n,) + img.shape), 0, 255).astype(np.uint8)  # noqa: E731
+    return noisy(before.astype(np.float64)), noisy(after)
+
+
+def test_pixel_ray_and_project_are_inverse():
+    P = _camera()
+    X = np.array([0.1, -0.3, 0.8])
+    centre, direction = pixel_ray(P, project(P, X))
+    lam = (X - centre) @ direction / (direction @ direction)
+    np.testing.assert_allclose(centre + lam * direction, X, atol=1e-9)
+
+
+@pytest.mark.parametrize("old_xy, new_xy", [((-0.2, -0.45), (0.05, -0.30)), ((0.1, -0.30), (-0.15, -0.48))])
+def test_moved_box_is_found_at_its_new_place(old_xy, new_xy):
+    P = _camera()
+    before, after = _frames(P, old_xy, new_xy)
+    res = scene_place(before, after, P, np.array(old_xy), TABLE_Z + 0.05)
+    assert res.found and res.reason == ""
+    assert np.linalg.norm(res.xy - np.array(new_xy)) < 0.015
+
+
+def test_hidden_new_place_is_flagged_not_guessed():
+    P = _camera()
+    before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), hidden=True)
+    res = scene_place(before, after, P, np.array([-0.2, -0.45]), TABLE_Z + 0.05)
+    assert not res.found and np.isnan(res.xy).all() and res.reason
+
+
+def test_reader_takes_the_rest_frames_around_the_movement():
+    P = _camera()
+    before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), n=10)
+    moving = np.repeat(after[:1] // 2, 20, axis=0)  # anything while the person moves
+    frames = np.concatenate([before, moving, after])
+    read = place_reader(frames, P, fps=10.0, first_frame=0, margin=2, rest_s=0.5, height=0.05)
+    res = read(12, 29, np.array([-0.2, -0.45]))
+    assert res.found and np.linalg.norm(res.xy - np.array([0.05, -0.30])) < 0.015
+    assert not read(3, 29, np.array([-0.2, -0.45])).found  # too few frames at rest before the movement
+
+
+def test_bad_input_names_the_argument():
+    P = _camera()
+    before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), n=2)
+    with pytest.raises(ValueError, match="P"):
+        scene_place(before, after, np.zeros((3, 3)), np.array([0.0, 0.0]), 0.8)
+    with pytest.raises(ValueError, match="old_xy"):
+        scene_place(before, after, P, np.array([np.nan, 0.0]), 0.8)
+    with pytest.raises(ValueError, match="after"):
+        scene_place(before, after[:, :100], P, np.array([0.0, 0.0]), 0.8)
+    with pytest.raises(ValueError, match="before"):
+        scene_place(before[0], after, P, np.array([0.0, 0.0]), 0.8)
