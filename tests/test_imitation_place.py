@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 
-from experiments.imitation.place import pixel_ray, place_reader, project, scene_place
+from experiments.imitation.place import moved_object, pixel_ray, place_reader, project, scene_place
 
 TABLE_Z = 0.75
 BOX = np.array([0.06, 0.06, 0.12])  # x, y, z extent (m) of the moved object
@@ -30,10 +30,14 @@ def _draw_box(img: np.ndarray, P: np.ndarray, xy, colour) -> None:
     cv2.fillConvexPoly(img, hull, colour)
 
 
+STILL_XY = (-0.05, -0.55)  # a second object that stays where it is
+
+
 def _frames(P, old_xy, new_xy, n=5, hidden=False):
     rng = np.random.default_rng(0)
     table = np.zeros((240, 320, 3), np.uint8)
     table[:] = (120, 80, 50)
+    _draw_box(table, P, STILL_XY, (60, 60, 70))
     before = table.copy()
     _draw_box(before, P, old_xy, (210, 210, 200))
     after = table.copy()
@@ -57,16 +61,18 @@ def test_pixel_ray_and_project_are_inverse():
 def test_moved_box_is_found_at_its_new_place(old_xy, new_xy):
     P = _camera()
     before, after = _frames(P, old_xy, new_xy)
-    res = scene_place(before, after, P, np.array(old_xy), TABLE_Z + 0.05)
-    assert res.found and res.reason == ""
-    assert np.linalg.norm(res.xy - np.array(new_xy)) < 0.015
+    objects = np.array([STILL_XY, old_xy])
+    for guess in (0, 1):  # the scene decides which object moved, whatever the guess
+        res = scene_place(before, after, P, objects, guess, TABLE_Z + 0.05)
+        assert res.found and res.reason == "" and res.moved == 1
+        assert np.linalg.norm(res.xy - np.array(new_xy)) < 0.015
 
 
 def test_hidden_new_place_is_flagged_not_guessed():
     P = _camera()
     before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), hidden=True)
-    res = scene_place(before, after, P, np.array([-0.2, -0.45]), TABLE_Z + 0.05)
-    assert not res.found and np.isnan(res.xy).all() and res.reason
+    res = scene_place(before, after, P, np.array([STILL_XY, (-0.2, -0.45)]), 0, TABLE_Z + 0.05)
+    assert res.moved == 1 and not res.found and np.isnan(res.xy).all() and res.reason
 
 
 def test_reader_takes_the_rest_frames_around_the_movement():
@@ -75,19 +81,33 @@ def test_reader_takes_the_rest_frames_around_the_movement():
     moving = np.repeat(after[:1] // 2, 20, axis=0)  # anything while the person moves
     frames = np.concatenate([before, moving, after])
     read = place_reader(frames, P, fps=10.0, first_frame=0, margin=2, rest_s=0.5, height=0.05)
-    res = read(12, 29, np.array([-0.2, -0.45]))
+    objects = np.array([STILL_XY, (-0.2, -0.45)])
+    res = read(12, 29, objects, 1)
     assert res.found and np.linalg.norm(res.xy - np.array([0.05, -0.30])) < 0.015
-    assert not read(3, 29, np.array([-0.2, -0.45])).found  # too few frames at rest before the movement
+    early = read(3, 29, objects, 1)  # too few frames at rest before the movement
+    assert not early.found and early.moved == -1
 
 
 def test_bad_input_names_the_argument():
     P = _camera()
     before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), n=2)
+    xy = np.zeros((2, 2))
     with pytest.raises(ValueError, match="P"):
-        scene_place(before, after, np.zeros((3, 3)), np.array([0.0, 0.0]), 0.8)
-    with pytest.raises(ValueError, match="old_xy"):
-        scene_place(before, after, P, np.array([np.nan, 0.0]), 0.8)
+        scene_place(before, after, np.zeros((3, 3)), xy, 0, 0.8)
+    with pytest.raises(ValueError, match="objects_xy"):
+        scene_place(before, after, P, np.array([[np.nan, 0.0]]), 0, 0.8)
+    with pytest.raises(ValueError, match="target"):
+        scene_place(before, after, P, xy, 2, 0.8)
     with pytest.raises(ValueError, match="after"):
-        scene_place(before, after[:, :100], P, np.array([0.0, 0.0]), 0.8)
+        scene_place(before, after[:, :100], P, xy, 0, 0.8)
     with pytest.raises(ValueError, match="before"):
-        scene_place(before[0], after, P, np.array([0.0, 0.0]), 0.8)
+        scene_place(before[0], after, P, xy, 0, 0.8)
+
+
+def test_moved_object_decides_only_when_one_position_changed():
+    changed = np.zeros((50, 50), bool)
+    changed[8:13, 8:13] = True
+    assert moved_object(changed, np.array([[10.0, 10.0], [40.0, 40.0]]), 2.0) == 0
+    changed[38:43, 38:43] = True  # both changed: not decided
+    assert moved_object(changed, np.array([[10.0, 10.0], [40.0, 40.0]]), 2.0) == -1
+    assert moved_object(changed, np.array([[25.0, 25.0], [-5.0, 60.0]]), 2.0) == -1  # nothing changed there

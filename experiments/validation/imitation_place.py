@@ -5,7 +5,8 @@ task's 5 cm, and the mean absolute pick-up / put-down frame errors, over the tra
 one, with the place read from the tracked hand (`pipeline.recognise_demo` without a scene reader), from
 the object's displacement in the video where it is found and the hand's elsewhere (the loop's
 `stages.scene_reader`), and, for comparison, from the renderer's true hand at the detected and at the
-true pick-up and put-down frames.
+true pick-up and put-down frames; and how often the target object is right from the PHMMs alone
+and in the loop, where the video's moved object overrules them.
 
     python experiments/validation/imitation_place.py [--preset paper] [--n 24]
 """
@@ -54,7 +55,8 @@ def main() -> None:
                      np.linalg.norm(start + x[r.putdown_frame, :2] - x[r.grasp_frame, :2] - demo.place_xy) * 100,
                      np.linalg.norm(start + x[true_p, :2] - x[true_g, :2] - demo.place_xy) * 100,
                      np.linalg.norm(seen.place_xy - demo.place_xy) * 100,
-                     abs(r.grasp_frame - true_g), abs(r.putdown_frame - true_p), seen.place_from == "scene"])
+                     abs(r.grasp_frame - true_g), abs(r.putdown_frame - true_p), seen.place_from == "scene",
+                     r.target == demo.target, seen.target == demo.target, seen.target != seen.target_phmm])
     rows = np.asarray(rows)
     names = ("tracked hand, detected frames", "true hand, detected frames", "true hand, true frames",
              "the object in the video where found, else the tracked hand")
@@ -66,6 +68,8 @@ def main() -> None:
         print(f"{name}: place error median {np.median(rows[:, k]):.1f} cm, within 5 cm {np.mean(rows[:, k] <= 5):.2f} "
               f"({len(rows)} of {len(demos)} recognised as transfers)")
     print(f"pick-up / put-down frames off: {rows[:, 4].mean():.1f} / {rows[:, 5].mean():.1f}")
+    print(f"target object right: the PHMMs {rows[:, 7].mean():.2f}, the loop (the object the video shows moved, "
+          f"where it decides) {rows[:, 8].mean():.2f}; the video overruled the PHMMs in {rows[:, 9].sum():.0f}")
 
 
 if __name__ == "__main__":
