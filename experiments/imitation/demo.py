@@ -42,12 +42,15 @@ def demo_stage(cfg) -> StageResult:
             ("place error (cm)", "", result["place_error_cm"]),
             ("robot", "", "did not run" if robot is None else
              ("success" if robot.success else f"failed at {robot.failed_stage}")),
+            ("task (the demonstrated object within 5 cm of the demonstrated place, upright)", "",
+             "done" if result["task_success"] else "not done"),
             ("first failing stage", "", result["failed_stage"] or "none")]
     elapsed = time.perf_counter() - start
     metrics = {"imitation_demo_kind": demo.kind, "imitation_demo_kind_recognised": result["kind_recognised"],
                "imitation_demo_target_correct": bool(result["target_recognised"] == demo.target),
                "imitation_demo_target_error_cm": result["target_error_cm"],
                "imitation_demo_robot_success": None if robot is None else bool(robot.success),
+               "imitation_demo_task_success": bool(result["task_success"]),
                "imitation_demo_failed_stage": result["failed_stage"] or "",
                "imitation_demo_stage_time_s": result["times"], "imitation_demo_s": elapsed}
     report = "\n".join([

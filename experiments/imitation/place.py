@@ -154,11 +154,12 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
                  height: float = 0.05, min_px_320: int = 20, radius_px_320: float = 5.0):
     """A function (movement start, end, objects_xy (K, 2), target) -> `ScenePlace` reading a transfer from
     `frames` (T, H, W, 3) of the view with camera matrix P (`scene_place`): the scene at rest over
-    `rest_s` seconds ending `margin` frames before the detected start (not before `first_frame`),
-    and over the last `rest_s` seconds of the recording, from `margin` frames after the detected end
-    (the online detector reports a movement some frames after it begins and ends). height: above
-    the table top, where an object's old position is looked up; min_px_320, radius_px_320:
-    `scene_place`'s min_px and radius_px for a 320 x 240 frame, scaled with the frame's size."""
+    `rest_s` seconds ending `margin` frames before the detected start (not before `first_frame`; the
+    detected start can be late by the online detector's window), and over the last `rest_s` seconds
+    of the recording after the detected end (at least 2 frames each: at 10 fps a person stands still
+    for about 5 frames before reaching). height: above the table top, where an object's old position
+    is looked up; min_px_320, radius_px_320: `scene_place`'s min_px and radius_px for a 320 x 240
+    frame, scaled with the frame's size."""
     from experiments.imitation.demonstrations import table_z
 
     n_frames = len(frames)
@@ -169,9 +170,9 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
     def read(start: int, end: int, objects_xy: np.ndarray, target: int) -> ScenePlace:
         b1 = start - margin
         b0 = max(first_frame, b1 - span)
-        a0 = max(end + margin + 1, n_frames - span)
-        if b1 - b0 < 3 or n_frames - a0 < 3:
-            return _not_found(-1, "fewer than 3 frames at rest before or after the movement")
+        a0 = max(end + 1, n_frames - span)
+        if b1 - b0 < 2 or n_frames - a0 < 2:
+            return _not_found(-1, "fewer than 2 frames at rest before or after the movement")
         return scene_place(frames[b0:b1], frames[a0:], P, objects_xy, target, table_z() + height, min_px=min_px,
                            radius_px=radius)
 

@@ -251,6 +251,7 @@ def summarise(results: list[dict], robot_ran: bool) -> dict:
         "n_demonstrations": n, "n_point": n - len(transfers), "n_transfer": len(transfers),
         "action_accuracy": mean([r["kind_recognised"] == r["kind"] for r in results]),
         "target_accuracy": mean([r["target_recognised"] == r["target"] for r in results]),
+        "target_accuracy_phmm": mean([r["recognised"].target_phmm == r["target"] for r in results]),
         "target_error_cm": float(np.median(errs)) if errs else float("nan"),
         "target_error_cm_mean": mean(errs),
         "grasp_accuracy": mean([r["grasp_recognised"] == r["grasp"] for r in transfers]),
