@@ -108,7 +108,9 @@ class TaskResult(NamedTuple):
     failed (one of `STAGES`), "" on success; object_pos (3,) the handled object's final position
     (world); upright, released: the two final checks; place_error_m: x-y distance to the place;
     n_corrections: tactile corrections made; yaw_deg: how far (about the vertical) the executed hand
-    orientation is turned from the preferred one (`YAW_STEPS_DEG`); stage_sim_s / stage_wall_s: simulated and wall-clock
+    orientation is turned from the preferred one (`YAW_STEPS_DEG`); others_moved_m: how far (x-y) the
+    other objects were pushed, the most (the arm has no collision-aware path; not part of `success`);
+    stage_sim_s / stage_wall_s: simulated and wall-clock
     seconds per stage that ran ("plan", "approach", "grasp", "carry", "place"; "grasp" includes the
     lift); frames (F, H, W, 3) uint8 of the fixed camera, or None when not rendered; fps: their rate.
     """
@@ -125,6 +127,7 @@ class TaskResult(NamedTuple):
     stage_wall_s: dict
     frames: np.ndarray | None
     fps: float
+    others_moved_m: float = 0.0
 
 
 
@@ -182,8 +185,10 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
         ok = failed == "" and upright and released and err <= PLACE_TOL_M
         failed = failed or ("" if ok else "place")
         frames = np.stack(sim.frames) if sim.frames else None
+        others = sim.others_moved()
         sim.close()
-        return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, sim_s, wall_s, frames, fps)
+        return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, sim_s, wall_s, frames, fps,
+                          others)
 
     n_corr = 0
     held_obj = GRASP_OBJECTS[spec.objects[spec.target]]

@@ -39,6 +39,8 @@ class TaskSim:
         mujoco.mj_forward(self.model, self.data)
         self.sensordata = self.data.sensordata[None].copy()
         self.target = spec.target
+        self.others = [b for k, b in enumerate(arm.object_body) if k != spec.target]
+        self.others_start = self.data.xpos[self.others].copy()
         self.obj_geom = self.model.body_geomadr[arm.object_body[spec.target]]
         self.t = 0.0
         self.frames, self.renderer = [], None
@@ -83,6 +85,12 @@ class TaskSim:
 
     def obj_pos(self) -> np.ndarray:
         return self.data.xpos[self.scene.arm.object_body[self.target]].copy()
+
+    def others_moved(self) -> float:
+        """How far (x-y, m) the objects other than the handled one have moved since the start, the most."""
+        if not self.others:
+            return 0.0
+        return float(np.max(np.linalg.norm(self.data.xpos[self.others, :2] - self.others_start[:, :2], axis=1)))
 
     def obj_rot(self) -> np.ndarray:
         return self.data.xmat[self.scene.arm.object_body[self.target]].reshape(3, 3).copy()

@@ -107,3 +107,22 @@ def test_retarget_path_ends_at_the_robot_s_poses_and_keeps_the_shape(points, sta
     frac[0], frac[-1] = 0.0, 1.0
     line = path[0] + frac[:, None] * (path[-1] - path[0])
     np.testing.assert_allclose(retarget_path(line, start, end), start + frac[:, None] * (end - start), atol=1e-9)
+
+
+def test_others_moved_measures_how_far_the_other_objects_were_pushed():
+    import mujoco
+
+    from sim.task_motion import TaskSim
+    from sim.task_plan import task_scene
+
+    spec = TaskSpec(objects=(1, 9), object_xy=[(0.0, -0.40), (0.2, -0.45)], target=0, grasp=1, place_xy=PLACE,
+                    hand="barrett")
+    scene = task_scene(spec.hand, spec.objects, tuple(map(tuple, spec.object_xy)))
+    sim = TaskSim(scene, spec, np.zeros(len(scene.arm.hand_ctrl)), False, "front", 32, 32, 20.0)
+    assert sim.others_moved() == 0.0
+    handled, other = scene.arm.object_qpos
+    sim.data.qpos[handled] += 0.3                       # the handled object does not count
+    sim.data.qpos[other:other + 2] += (0.03, -0.04)     # the other one pushed 5 cm
+    mujoco.mj_forward(sim.model, sim.data)
+    assert sim.others_moved() == pytest.approx(0.05, abs=1e-9)
+    sim.close()

@@ -27,6 +27,8 @@ demonstrations of their own seed; the PHMMs are trained on kinematics of a third
 Outputs: metrics.json (`n_demonstrations`, `action_accuracy`, `target_error_cm`, `grasp_accuracy`,
 `task_success_rate`: the demonstrated object within 5 cm of the demonstrated place, upright, whatever
 grasp the robot used; `task_success_all_recognised_rate`: that and everything recognised right;
+`task_success_undisturbed_rate`: that and no other object pushed more than 5 cm (the arm has no
+collision-aware path; `others_disturbed_rate`);
 `failures_by_stage`, `runtime_s`, per-stage times, ...), report.md,
 side_by_side.mp4 (the person | the robot, or the recognised scene where no robot ran).
 

@@ -46,6 +46,10 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
             ["task success (the demonstrated object within 5 cm of the demonstrated place, upright)",
              _fmt(metrics["task_success_rate"]), "—"],
             ["task success with everything recognised right", _fmt(metrics["task_success_all_recognised_rate"]), "—"],
+            ["task success with no other object pushed more than 5 cm", _fmt(metrics["task_success_undisturbed_rate"]),
+             "—"],
+            ["robot runs that pushed another object more than 5 cm (no collision-aware path)",
+             _fmt(metrics["others_disturbed_rate"]), "—"],
         ]), "",
         "## Failures by the stage that caused them", "",
         "The first stage in the loop's order (tracking, action, target, grasp, place, then the robot's stages) "

@@ -27,6 +27,7 @@ from sim.grasp_objects import GRASP_CLASSES
 
 STAGES = ("tracking", "action", "target", "grasp", "place")  # recognition stages, in the loop's order
 _TRAIN_SEED = 2000
+DISTURBED_M = 0.05  # another object pushed farther than this (x-y) by the robot counts as disturbed
 
 
 class Models(NamedTuple):
@@ -268,6 +269,10 @@ def summarise(results: list[dict], robot_ran: bool) -> dict:
         "task_success_rate": mean([r["task_success"] for r in results]) if robot_ran else None,
         "task_success_all_recognised_rate": mean([r["recognised_right"] and r["task_success"] for r in results])
         if robot_ran else None,
+        # the arm has no collision-aware path: how often it pushed another object aside
+        "others_disturbed_rate": mean([x.others_moved_m > DISTURBED_M for x in robot]),
+        "task_success_undisturbed_rate": mean([r["task_success"] and r["robot"].others_moved_m <= DISTURBED_M
+                                               for r in results]) if robot_ran else None,
         "robot_ran": bool(robot) and robot_ran, "robot_success_rate": mean([bool(x.success) for x in robot]),
         "failures_by_stage": failures,
         "stage_time_s": {k: v / max(n, 1) for k, v in times.items()},
