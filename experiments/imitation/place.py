@@ -26,6 +26,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
+from experiments.imitation.demonstrations import table_z
+
 
 class ScenePlace(NamedTuple):
     """What the scene shows of a transfer: moved, the object that the scene shows moved (-1: not
@@ -160,8 +162,6 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
     for about 5 frames before reaching). height: above the table top, where an object's old position
     is looked up; min_px_320, radius_px_320: `scene_place`'s min_px and radius_px for a 320 x 240
     frame, scaled with the frame's size."""
-    from experiments.imitation.demonstrations import table_z
-
     n_frames = len(frames)
     span = max(3, round(rest_s * fps))
     min_px = max(4, round(min_px_320 * frames.shape[1] * frames.shape[2] / (320 * 240)))
