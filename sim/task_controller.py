@@ -12,10 +12,11 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    the canonical human hand (`sim.human_grasps.hand_pose_in_world`) with the recognised one
    (`TaskSpec.hand_rot`, world), and moved onto the object. The palm poses above the pre-grasp, at
    the pre-grasp, grasp, lift, above the place, at the place and retracted are checked with one
-   batched `solve_ik`, at that yaw and at turns of `YAW_STEPS_DEG` (up to 90 degrees) from it, and
+   batched `solve_ik`, at that yaw and at turns of `YAW_STEPS_DEG` (up to 90 degrees) from it, each
+   level and then tilted downwards by `TILT_STEPS_DEG` (the grasp study's orientation error), and
    with MuJoCo's collision detection at the IK answers (no contact with another object, none of the
-   arm with the table): the first yaw at which the arm reaches all seven cleanly is executed
-   (`TaskResult.yaw_deg`: the imitation as close as the arm allows); none -> the result fails at
+   arm with the table): the first plan for which the arm reaches all seven cleanly is executed
+   (`TaskResult.yaw_deg`, `tilt_deg`: the imitation as close as the arm allows); none -> the result fails at
    "ik_unreachable" without simulating (so does a place off the table).
 2. Approach: the palm rises `CLEAR_M` from home (whose fingers point down at the table), then
    follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised reach, retargeted
@@ -108,7 +109,8 @@ class TaskResult(NamedTuple):
     failed (one of `STAGES`), "" on success; object_pos (3,) the handled object's final position
     (world); upright, released: the two final checks; place_error_m: x-y distance to the place;
     n_corrections: tactile corrections made; yaw_deg: how far (about the vertical) the executed hand
-    orientation is turned from the preferred one (`YAW_STEPS_DEG`); others_moved_m: how far (x-y) the
+    orientation is turned from the preferred one (`YAW_STEPS_DEG`); tilt_deg: the approach's downward
+    tilt (`TILT_STEPS_DEG`); others_moved_m: how far (x-y) the
     other objects were pushed, the most (the arm has no collision-aware path; not part of `success`);
     stage_sim_s / stage_wall_s: simulated and wall-clock
     seconds per stage that ran ("plan", "approach", "grasp", "carry", "place"; "grasp" includes the
@@ -123,6 +125,7 @@ class TaskResult(NamedTuple):
     place_error_m: float
     n_corrections: int
     yaw_deg: float
+    tilt_deg: float
     stage_sim_s: dict
     stage_wall_s: dict
     frames: np.ndarray | None
@@ -164,7 +167,7 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
     centre = plan.obj_centre
     if not (reachable and on_table(spec.place_xy)):
         return TaskResult(False, "ik_unreachable", centre, True, True,
-                          float(np.linalg.norm(centre[:2] - spec.place_xy)), 0, plan.yaw_deg, sim_s, wall_s, None, fps)
+                          float(np.linalg.norm(centre[:2] - spec.place_xy)), 0, plan.yaw_deg, plan.tilt_deg, sim_s, wall_s, None, fps)
 
     params = plan.params
     open_, closed = params.open_[0].astype(float), params.closed[0].astype(float)
@@ -187,7 +190,8 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
         frames = np.stack(sim.frames) if sim.frames else None
         others = sim.others_moved()
         sim.close()
-        return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, sim_s, wall_s, frames, fps,
+        return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, plan.tilt_deg, sim_s, wall_s, frames,
+                          fps,
                           others)
 
     n_corr = 0

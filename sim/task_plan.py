@@ -154,6 +154,11 @@ def _rot_z(angle: float) -> np.ndarray:
 
 
 YAW_STEPS_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0)
+# downward tilts of the approach (`plan_trials`' tilts_deg), tried at every yaw after the plan's own (0):
+# near the arm's base a level side approach to a short object puts the wrist into the table, and the forearm
+# over a neighbour; validation demonstrations of their own seed (README, issue 21): Abducted Thumb tasks
+# reachable 4 / 14 level, 13 / 14 with these
+TILT_STEPS_DEG = (0.0, 15.0, 30.0)
 
 
 def _preferred_yaw(grasp: int, hand_rot: np.ndarray | None, object_xy: np.ndarray) -> float:
@@ -174,10 +179,12 @@ class TaskPlan(NamedTuple):
     grasp_palm: np.ndarray  # (3,) where the palm is expected to close (world)
     obj_centre: np.ndarray  # (3,) the object's centre (world)
     yaw_deg: float          # the plan's turn away from the preferred yaw
+    tilt_deg: float         # the approach's downward tilt (`TILT_STEPS_DEG`)
 
 
-def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float) -> TaskPlan:
-    """`plan_trials`' plan (object frame, B = 1) turned by `psi` about the vertical and put on the object."""
+def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float, tilt_deg: float) -> TaskPlan:
+    """`plan_trials`' plan (object frame, B = 1, tilted by `tilt_deg`) turned by `psi` about the vertical
+    and put on the object."""
     turn = _rot_z(psi)
     obj = GRASP_OBJECTS[spec.objects[spec.target]]
     ox, oy = spec.object_xy[spec.target]
@@ -192,24 +199,27 @@ def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float) -> Ta
                             approach=approach[None].astype(np.float32),
                             obj=np.array([spec.target], np.int32))
     centre = np.array([ox, oy, TABLE.top_z + obj.rest_height_m])
-    return TaskPlan(world, rot, goal - standoff * approach, centre, yaw_deg)
+    return TaskPlan(world, rot, goal - standoff * approach, centre, yaw_deg, tilt_deg)
 
 
 def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) -> tuple[TaskPlan, bool]:
-    """The plan of the first yaw in `YAW_STEPS_DEG` (turns from the preferred yaw) whose key poses
-    (`key_poses`) the arm reaches (one batched IK call for all) without touching another object, or
-    the table with anything but the hand (`collides`); and whether there is one (else the preferred)."""
-    params, _ = plan_trials(spec.hand, [spec.grasp], np.zeros((1, 2)), [0.0], [spec.tactile], [seed],
-                            mapping=mapping, hold_s=HOLD_S)
+    """The plan of the first (tilt, yaw) in `TILT_STEPS_DEG` x `YAW_STEPS_DEG` (turns from the preferred
+    yaw; the level approach at every yaw first) whose key poses (`key_poses`) the arm reaches (one batched
+    IK call for all) without touching another object, or the table with anything but the hand
+    (`collides`); and whether there is one (else the level, preferred one)."""
+    n_tilt = len(TILT_STEPS_DEG)
+    params, _ = plan_trials(spec.hand, [spec.grasp] * n_tilt, np.zeros((n_tilt, 2)), TILT_STEPS_DEG,
+                            [spec.tactile] * n_tilt, [seed] * n_tilt, mapping=mapping, hold_s=HOLD_S)
     psi0 = _preferred_yaw(spec.grasp, spec.hand_rot, spec.object_xy[spec.target])
-    plans = [_plan(spec, params, psi0 + np.radians(d), d) for d in YAW_STEPS_DEG]
+    plans = [_plan(spec, jax.tree.map(lambda a, i=i: a[i:i + 1], params), psi0 + np.radians(d), d, t)
+             for i, t in enumerate(TILT_STEPS_DEG) for d in YAW_STEPS_DEG]
     poses = np.stack([key_poses(p, spec.place_xy) for p in plans])                       # (Y, P, 3)
-    n_yaw, n_pose = poses.shape[:2]
+    n_plan, n_pose = poses.shape[:2]
     rots = np.repeat(np.stack([p.rot for p in plans]), n_pose, axis=0)
-    ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_yaw * n_pose, 1)), pos_tol=5e-3,
+    ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_plan * n_pose, 1)), pos_tol=5e-3,
                   rot_tol=0.05)
-    ok = np.asarray(ik.reachable).reshape(n_yaw, n_pose).all(1)
-    q = np.asarray(ik.q, float).reshape(n_yaw, n_pose, -1)
+    ok = np.asarray(ik.reachable).reshape(n_plan, n_pose).all(1)
+    q = np.asarray(ik.q, float).reshape(n_plan, n_pose, -1)
     for k in np.flatnonzero(ok):
         if not collides(scene, spec.target, q[k], plans[k].params):
             return plans[k], True

@@ -126,3 +126,28 @@ def test_others_moved_measures_how_far_the_other_objects_were_pushed():
     mujoco.mj_forward(sim.model, sim.data)
     assert sim.others_moved() == pytest.approx(0.05, abs=1e-9)
     sim.close()
+
+
+def test_the_plan_tilts_the_approach_where_no_level_one_is_clean(monkeypatch):
+    # a validation scene of the imitation loop (seed 7000, demonstration 37): the Abducted Thumb's level side
+    # approach to the cup stand-in (object 1) puts the arm into a neighbour or the wrist into the table at
+    # every yaw; tilted 15 degrees downwards it does not
+    import sim.task_plan as tp
+    from sim.manipulator_ik import forward_kinematics, solve_ik
+
+    spec = tp.check_spec(TaskSpec(objects=(1, 4, 10), object_xy=[(-0.438, -0.295), (-0.29, -0.473), (0.071, -0.444)],
+                                  target=1, grasp=4, place_xy=(-0.1, -0.3), hand="barrett"))
+    scene = tp.task_scene(spec.hand, spec.objects, tuple(map(tuple, spec.object_xy.tolist())))
+    plan, ok = tp.reachable_plan(spec, scene, 516, "map2009")
+    assert ok and plan.tilt_deg > 0
+    approach = plan.params.approach[0]
+    assert np.degrees(np.arcsin(-approach[2])) == pytest.approx(plan.tilt_deg, abs=5.0)   # downwards (2 deg noise)
+    poses = tp.key_poses(plan, spec.place_xy)
+    ik = solve_ik(scene.chain, poses, np.repeat(plan.rot[None], len(poses), 0), np.tile(tp.HOME_Q, (len(poses), 1)),
+                  pos_tol=5e-3, rot_tol=0.05)
+    reached = np.asarray(forward_kinematics(scene.chain, ik.q)[0])
+    np.testing.assert_allclose(reached, poses, atol=5e-3)
+    assert not tp.collides(scene, spec.target, np.asarray(ik.q, float), plan.params)
+    monkeypatch.setattr(tp, "TILT_STEPS_DEG", (0.0,))
+    level, level_ok = tp.reachable_plan(spec, scene, 516, "map2009")
+    assert not level_ok and level.tilt_deg == 0.0
