@@ -122,7 +122,7 @@ def _objects_xml(objects: Sequence[int], object_xy: np.ndarray, top_z: float) ->
         z = top_z + obj.rest_height_m
         bodies.append(f'<body name="object{k}" pos="{x:.4f} {y:.4f} {z:.4f}"><freejoint name="object{k}"/>'
                       + obj.geom_xml(name=f"object{k}", rgba=_OBJECT_RGBA[k % len(_OBJECT_RGBA)],
-                                     extra=f'{_OBJECT_BITS} condim="4"') + "</body>")
+                                     extra=f'{_OBJECT_BITS} condim="6"') + "</body>")
     return "".join(bodies)
 
 
