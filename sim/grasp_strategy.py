@@ -24,8 +24,7 @@ approaches move slowly all the way: their open fingers reach far ahead of the pa
 with the fingertips `START_CLEARANCE_M` from the object, so under a position error a fingertip may
 strike the object from the first step on; at full speed that strike topples a thin cylinder before
 the correction can act (issue 21, `experiments.validation.tactile_correction`). Then the fingers
-close, the hand lifts 10 cm and holds for 1 s. No Python branching on data: every transition
-is a `where`.
+close, the hand lifts 10 cm and holds for 1 s. No Python branching on data: every transition is a `where`.
 """
 from __future__ import annotations
 
@@ -325,7 +324,7 @@ def _seeded_normal(seeds: np.ndarray, stream: int, shape: tuple[int, ...]) -> np
 
 def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: str = "map2009",
                 pos_noise_m: float = 0.003, rot_noise_deg: float = 2.0,
-                hold_s: float = HOLD_S) -> tuple[TrialParams, np.ndarray]:
+                hold_s: float = HOLD_S, objects=None) -> tuple[TrialParams, np.ndarray]:
     """Plan B trials of `hand`, one per row of the equal-length arrays below.
 
     grasps (B,): human grasp classes; offsets (B, 2): true object position minus the estimate, on the
@@ -333,15 +332,20 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     planned hand pose is rotated by it about a horizontal axis through the object centre (for a side
     approach the approach tilts downwards); tactile (B,) bool: tactile correction on; seeds (B,) int:
     hand-pose noise (position `pos_noise_m`, rotation `rot_noise_deg`, Gaussian per axis); hold_s:
-    how long the lifted object is held (s, [CONTROL_DT_S, HOLD_S]; shorter only to make a test cheaper).
-    Returns (params, object start positions (B, 3)).
+    how long the lifted object is held (s, [CONTROL_DT_S, HOLD_S]; shorter only to make a test cheaper);
+    objects (B,): the grasp class whose object (`GRASP_OBJECTS`) each trial handles (default: its own
+    grasp's): the preshape and the approach come from the grasp class, the stand-off, the stop and the
+    centre height from the handled object's geometry (MAP §III's "predefined distance" is from the
+    object). Returns (params, object start positions (B, 3)).
     """
     spec = hand_spec(hand)
     check_choice(mapping, "mapping", ("map2009", "iros2008"))
     grasps = as_array(grasps, "grasps", ndim=1, dtype=np.int64)
     b = grasps.shape[0]
-    for g in np.unique(grasps):  # the distinct classes, not the trials
-        check_grasp_class(int(g), "grasps")
+    objects = grasps if objects is None else as_array(objects, "objects", shape=(b,), dtype=np.int64)
+    for name, values in (("grasps", grasps), ("objects", objects)):
+        for g in np.unique(values):  # the distinct classes, not the trials
+            check_grasp_class(int(g), name)
     offsets = as_array(offsets, "offsets", shape=(b, 2), min_value=-0.2, max_value=0.2)
     tilts = as_array(tilts_deg, "tilts_deg", shape=(b,), min_value=-90.0, max_value=90.0)
     tactile = as_array(tactile, "tactile", shape=(b,), dtype=bool)
@@ -354,18 +358,22 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     frames = [human_hand_frame(g) for g in GRASP_CLASSES]
     robots = [robot_grasp_for(g, spec.name, mapping) for g in GRASP_CLASSES]
     shapes = np.array([preshape(spec.name, r) for r in robots])                    # (6, 2, D)
-    extents = np.array([object_extent(g, a) for g, (a, _) in zip(GRASP_CLASSES, frames)])
-    widths = np.array([object_extent(g, np.cross(a, x)) for g, (a, x) in zip(GRASP_CLASSES, frames)])
-    depth = np.array([contact_depth(spec.name, r, w) for r, w in zip(robots, widths)])
     volar_cls = np.isin(GRASP_CLASSES, list(VOLAR_GRASPS))
     reach_cls = np.array([fingertip_sweep(spec.name, r)[0, :, 2].max() for r in robots])
-    rest_cls = np.array([GRASP_OBJECTS[g].rest_height_m for g in GRASP_CLASSES])
     top_cls = np.array([a[2] < -np.cos(np.radians(TOP_APPROACH_MAX_DEG)) for a, _ in frames])
-    table_cls = np.where(top_cls, reach_cls - rest_cls + TIP_CLEARANCE_M, 0.0)
-    standoff_cls = np.where(volar_cls, 0.0,
-                            np.maximum(np.clip(depth, extents + 0.01, extents + PALM_GAP_M), table_cls))
     cls = np.searchsorted(GRASP_CLASSES, grasps)                                 # (B,)
+    obj = np.searchsorted(GRASP_CLASSES, objects)                                # (B,)
 
+    def standoff_of(c: int, o: int) -> float:  # the palm's from the centre of object o grasped with class c
+        (a, x), g = frames[c], GRASP_CLASSES[o]
+        if volar_cls[c]:
+            return 0.0
+        extent = float(object_extent(g, a))
+        depth = contact_depth(spec.name, robots[c], float(object_extent(g, np.cross(a, x))))
+        table = reach_cls[c] - GRASP_OBJECTS[g].rest_height_m + TIP_CLEARANCE_M if top_cls[c] else 0.0
+        return max(float(np.clip(depth, extent + 0.01, extent + PALM_GAP_M)), table)
+
+    pairs = {pair: standoff_of(*pair) for pair in set(zip(cls.tolist(), obj.tolist()))}
     approach = np.stack([a for a, _ in frames])[cls]
     axis = np.stack([x for _, x in frames])[cls]
     # orientation error: rotate the planned pose about k = a x z (side) or the wrap axis (top)
@@ -377,16 +385,16 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     rot = np.stack([_unit(axis), np.cross(approach, axis), approach], -1)      # columns x, y, z (B, 3, 3)
     rot = noise @ r_err @ rot
     approach = rot[:, :, 2]
-    rest = rest_cls[cls]
+    rest = np.array([GRASP_OBJECTS[g].rest_height_m for g in objects])
     goal = np.stack([np.zeros(b), np.zeros(b), rest], -1) + pos_noise_m * _seeded_normal(seeds, 2, (3,))
-    extent = np.choose(cls, [object_extent(g, approach) for g in GRASP_CLASSES])
-    standoff = standoff_cls[cls]
+    extent = np.choose(obj, [object_extent(g, approach) for g in GRASP_CLASSES])
+    standoff = np.array([pairs[pair] for pair in zip(cls.tolist(), obj.tolist())])
     start = goal - approach * (np.maximum(standoff, extent + reach_cls[cls]) + START_CLEARANCE_M)[:, None]
     params = TrialParams(
         goal=goal.astype(np.float32), approach=approach.astype(np.float32),
         wrist=_wrist_angles(rot).astype(np.float32), start=start.astype(np.float32),
         standoff=standoff.astype(np.float32), volar=volar_cls[cls], tactile=tactile,
         open_=shapes[cls, 0].astype(np.float32), closed=shapes[cls, 1].astype(np.float32),
-        obj=cls.astype(np.int32), hold_s=np.full(b, hold_s, np.float32))
+        obj=obj.astype(np.int32), hold_s=np.full(b, hold_s, np.float32))
     object_start = np.stack([offsets[:, 0], offsets[:, 1], rest], -1)
     return params, object_start

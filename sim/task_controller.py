@@ -58,9 +58,9 @@ lowered).
 What it does not do: no collision-aware path planning (only the key poses are checked; the
 straight carry can sweep other objects off the table, the arm may brush them), no re-grasp after a
 failure, no change of hand orientation between grasp and place (a place that needs one is
-unreachable), no force control while lowering (it stops at the first object-table contact). The plan uses the geometry of the grasp class's own
-object (`sim.grasp_objects.GRASP_OBJECTS[grasp]`, as the grasp study does); a handled object of
-another class only shifts the plan to its centre height. Recognised orientation: only its yaw
+unreachable), no force control while lowering (it stops at the first object-table contact). The plan takes the preshape and the approach from
+the grasp class and the stand-off, the stop and the centre height from the handled object's geometry
+(`plan_trials(..., objects=)`; the grasp study plans each class for its own object). Recognised orientation: only its yaw
 about the vertical is used (MAP §III snaps the approach to top or side anyway).
 """
 from __future__ import annotations

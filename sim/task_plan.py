@@ -188,13 +188,13 @@ def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float, tilt_
     turn = _rot_z(psi)
     obj = GRASP_OBJECTS[spec.objects[spec.target]]
     ox, oy = spec.object_xy[spec.target]
-    shift = np.array([ox, oy, TABLE.top_z + obj.rest_height_m - GRASP_OBJECTS[spec.grasp].rest_height_m])
+    shift = np.array([ox, oy, TABLE.top_z])   # the plan is made for the handled object (`plan_trials` objects)
     goal = params.goal[0] @ turn.T + shift
     start = params.start[0] @ turn.T + shift
     approach = turn @ params.approach[0]
     rot = turn @ Rotation.from_euler("ZXY", params.wrist[0]).as_matrix()
     # the palm stops at the standoff (open-loop) or at about the object's surface (volar)
-    standoff = params.standoff[0] if not params.volar[0] else float(object_extent(spec.grasp, approach))
+    standoff = params.standoff[0] if not params.volar[0] else float(object_extent(spec.objects[spec.target], approach))
     world = params._replace(goal=goal[None].astype(np.float32), start=start[None].astype(np.float32),
                             approach=approach[None].astype(np.float32),
                             obj=np.array([spec.target], np.int32))
@@ -209,7 +209,8 @@ def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) ->
     (`collides`); and whether there is one (else the level, preferred one)."""
     n_tilt = len(TILT_STEPS_DEG)
     params, _ = plan_trials(spec.hand, [spec.grasp] * n_tilt, np.zeros((n_tilt, 2)), TILT_STEPS_DEG,
-                            [spec.tactile] * n_tilt, [seed] * n_tilt, mapping=mapping, hold_s=HOLD_S)
+                            [spec.tactile] * n_tilt, [seed] * n_tilt, mapping=mapping, hold_s=HOLD_S,
+                            objects=[spec.objects[spec.target]] * n_tilt)
     psi0 = _preferred_yaw(spec.grasp, spec.hand_rot, spec.object_xy[spec.target])
     plans = [_plan(spec, jax.tree.map(lambda a, i=i: a[i:i + 1], params), psi0 + np.radians(d), d, t)
              for i, t in enumerate(TILT_STEPS_DEG) for d in YAW_STEPS_DEG]

@@ -186,12 +186,35 @@ def test_bad_input():
         _plan("barrett", [1], offsets=np.array([[0.5, 0.0]]))
     with pytest.raises(ValueError, match="hold_s"):
         _plan("barrett", [1], hold_s=0.0)
+    with pytest.raises(ValueError, match="objects"):
+        plan_trials("barrett", [1], np.zeros((1, 2)), [0.0], [True], [0], objects=[3])
     params, start = _plan("barrett", [1])
     bad = params._replace(goal=np.array([[np.nan, 0, 0]], np.float32))
     with pytest.raises(ValueError, match="params.goal"):
         rollout_grasps("barrett", bad, start, backend="native")
     with pytest.raises(ValueError, match="object_start"):
         rollout_grasps("barrett", params, np.zeros((2, 3)), backend="native")
+
+
+def test_the_plan_is_made_for_the_handled_object():
+    # an Abducted Thumb (open-loop, from the side) planned for the bottle instead of its own glass: the same
+    # preshape and approach; the bottle's centre height, and a palm at least 1 cm off the bottle's surface
+    from sim.grasp_objects import GRASP_OBJECTS
+    from sim.grasp_strategy import object_extent
+
+    args = ("barrett", [4], np.zeros((1, 2)), [0.0], [True], [0])
+    own, own_start = plan_trials(*args)
+    same, _ = plan_trials(*args, objects=[4])
+    bottle, bottle_start = plan_trials(*args, objects=[1])
+    for a, b in zip(own, same):
+        np.testing.assert_array_equal(a, b)
+    for name in ("open_", "closed", "approach", "wrist", "volar"):
+        np.testing.assert_array_equal(getattr(own, name), getattr(bottle, name))
+    rise = GRASP_OBJECTS[1].rest_height_m - GRASP_OBJECTS[4].rest_height_m
+    assert bottle.goal[0, 2] - own.goal[0, 2] == pytest.approx(rise, abs=1e-6)
+    assert bottle_start[0, 2] - own_start[0, 2] == pytest.approx(rise, abs=1e-6)
+    extent = float(object_extent(1, bottle.approach[0]))
+    assert bottle.standoff[0] - extent >= 0.01 - 1e-6 > own.standoff[0] - extent   # the glass's: 2.5 mm off it
 
 
 @pytest.fixture(scope="module", params=["barrett", "karlsruhe"])
