@@ -111,3 +111,30 @@ def test_moved_object_decides_only_when_one_position_changed():
     changed[38:43, 38:43] = True  # both changed: not decided
     assert moved_object(changed, np.array([[10.0, 10.0], [40.0, 40.0]]), 2.0) == -1
     assert moved_object(changed, np.array([[25.0, 25.0], [-5.0, 60.0]]), 2.0) == -1  # nothing changed there
+
+
+def test_a_pointing_is_a_transfer_where_the_video_shows_an_object_moved(monkeypatch):
+    from experiments.imitation import pipeline as pl
+    from experiments.imitation.place import ScenePlace
+
+    n = 40
+    arc = np.sin(np.pi * np.linspace(0.0, 1.0, n))
+    tracked = pl.Tracked(np.stack([0.3 * arc, -0.4 + 0.1 * arc, -0.3 + 0.0 * arc], 1), np.ones(n, bool),
+                         np.zeros((n, 2)), 0)
+    objects = np.array([[0.0, -0.4], [0.2, -0.45], [-0.2, -0.5]])
+    handover, new_place = np.array([-0.1, -0.3]), np.array([0.1, -0.3])
+    monkeypatch.setattr(pl, "movement", lambda *_: ("point", objects[0] + 0.01, 5, 30))   # the PHMMs: a pointing
+
+    def recognise(moved: int):
+        def scene(start, end, objects_xy, target):
+            assert (start, end) == (5, 30)
+            return ScenePlace(moved, new_place if moved >= 0 else np.full(2, np.nan), moved >= 0, "")
+        return pl.recognise_demo(None, tracked, np.zeros(3), 3, objects, handover, scene=scene)
+
+    r = recognise(1)                                              # the video: object 1 moved to new_place
+    assert (r.kind, r.kind_phmm, r.target, r.target_phmm, r.place_from) == ("transfer", "point", 1, 0, "scene")
+    np.testing.assert_allclose(r.place_xy, new_place)
+    assert 5 <= r.grasp_frame < r.putdown_frame <= 30
+    r = recognise(-1)                                             # the video does not decide: the PHMMs stand
+    assert (r.kind, r.kind_phmm, r.target, r.grasp_frame) == ("point", "point", 0, -1)
+    np.testing.assert_allclose(r.place_xy, handover)

@@ -12,7 +12,8 @@ Per demonstration (`stages.run_demo`, `pipeline`):
    both views, the triangulated hand relative to the face);
 2. the online PHMM recogniser (BMVC 2008 §5.4: a streaming forward state per class, movement start
    and end detected, class and parameter after a latency of `online_window_s`; Humanoids 2008
-   §III): point or pick-and-place, and the target on the table, snapped to the nearest object;
+   §III): point or pick-and-place, and the target on the table, snapped to the nearest object; a
+   movement called a pointing is a pick-and-place where the video shows an object moved (`place`);
 3. the grasp moment and the put-down from the hand's speed along the movement; the place = where the
    object stood plus its own displacement between the scene at rest before and after the movement
    (`place`), or, where the video does not show it, plus the hand's displacement between them;

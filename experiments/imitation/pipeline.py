@@ -241,7 +241,9 @@ class Recognised(NamedTuple):
     hand-over spot for pointing), grasp (a `GRASP_CLASSES` class, -1: none), grasp_quat (4,) (the hand's
     orientation relative to the camera, NaN if none), place_from ("scene": the object's own displacement in
     the video, `experiments.imitation.place`; "hand": the hand's; "" for pointing), target_phmm (the object
-    nearest the PHMMs' target; `target` differs from it where the video shows another object moved)."""
+    nearest the PHMMs' target; `target` differs from it where the video shows another object moved),
+    kind_phmm (the PHMMs' class; `kind` is "transfer" where they said "point" and the video shows an
+    object moved)."""
 
     kind: str | None
     target_xy: np.ndarray
@@ -255,6 +257,7 @@ class Recognised(NamedTuple):
     grasp_quat: np.ndarray
     place_from: str = ""
     target_phmm: int = -1
+    kind_phmm: str | None = None
 
 
 def movement(rec_online, stream: np.ndarray, merge_gap: int):
@@ -316,7 +319,9 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     None: from the whole movement); `scene` ((start, end, objects_xy, target) -> `place.ScenePlace`,
     `place.place_reader`) reads which object moved and its place from the video: the object it shows
     moved replaces the PHMMs' target, and its displacement the hand's from the grasp moment to the
-    put-down, each where the video decides (None: the PHMMs' target and the hand's displacement)."""
+    put-down, each where the video decides (None: the PHMMs' target and the hand's displacement). A
+    movement the PHMMs call a pointing is a transfer where the video shows an object moved (a pointing
+    moves nothing)."""
     objects_xy = np.asarray(objects_xy, float)
     if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
         raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
@@ -328,21 +333,26 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     if found is None:
         return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
     kind, xy, s, e = found
+    kind_phmm = kind
     target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
-    if kind == "point":
+    seen = scene(s, e, objects_xy, target) if scene is not None else None
+    if kind == "point" and (seen is None or seen.moved < 0):
         return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan), "",
-                          target)
+                          target, kind)
+    kind = "transfer"
     g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e)
     from_reach = None if reach_phmm is None else reach_target(reach_phmm, stream[s:g + 1])
     if from_reach is not None:
         xy = from_reach
         target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
+        if seen is not None and seen.moved < 0:   # not decided: the object now guessed is looked for
+            seen = scene(s, e, objects_xy, target)
     by_phmm = target
-    seen = scene(s, e, objects_xy, target) if scene is not None else None
     if seen is not None and seen.moved >= 0:
         target = seen.moved
     place, place_from = objects_xy[target] + (stream[p, :2] - stream[g, :2]), "hand"
     if seen is not None and seen.found:
         place, place_from = seen.xy, "scene"
     cls, quat = grasp(g) if grasp is not None else (-1, np.full(4, np.nan))
-    return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float), place_from, by_phmm)
+    return Recognised(kind, xy, target, s, e, g, p, place, int(cls), np.asarray(quat, float), place_from, by_phmm,
+                      kind_phmm)

@@ -251,6 +251,7 @@ def summarise(results: list[dict], robot_ran: bool) -> dict:
     return {
         "n_demonstrations": n, "n_point": n - len(transfers), "n_transfer": len(transfers),
         "action_accuracy": mean([r["kind_recognised"] == r["kind"] for r in results]),
+        "action_accuracy_phmm": mean([r["recognised"].kind_phmm == r["kind"] for r in results]),
         "target_accuracy": mean([r["target_recognised"] == r["target"] for r in results]),
         "target_accuracy_phmm": mean([r["recognised"].target_phmm == r["target"] for r in results]),
         "target_error_cm": float(np.median(errs)) if errs else float("nan"),

@@ -1,0 +1,58 @@
+"""Whether the video's moved object should overrule the online PHMMs' action (issue 21): transfer and
+pointing demonstrations of a validation seed of their own (the grasp stage's validation stream, not the
+evaluated ones) through the loop's front end, online PHMMs and validation choices; prints the action
+accuracy from the PHMMs alone and with the loop's rule (a movement the PHMMs call a pointing is a
+transfer where the video shows an object moved, `pipeline.recognise_demo` with `stages.scene_reader`),
+and how many pointings the rule turned into transfers, rightly and wrongly.
+
+    python experiments/validation/imitation_action.py [--preset paper] [--n 24] [--n-point 12]
+"""
+import argparse
+
+import numpy as np
+
+import phmm_jax as P
+from experiments.imitation import pipeline as pl
+from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
+from experiments.imitation.demonstrations import draw_demos
+from experiments.imitation.stages import _tracked_demo, phmm_models, scene_reader, skin_models, validation_stage
+from experiments.validation.imitation_grasp import _SEED_OFFSET
+from lfd_common import enable_compilation_cache
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
+    parser.add_argument("--n", type=int, default=24, help="validation transfer demonstrations")
+    parser.add_argument("--n-point", type=int, default=12, help="validation pointing demonstrations")
+    args = parser.parse_args()
+    enable_compilation_cache()
+    cfg = Config(**PRESETS[args.preset])
+    settings = cfg.video_settings()
+    _, rgb = skin_models(cfg, settings)
+    phmms = phmm_models(cfg, settings)
+    offset, sigma, thr, _ = validation_stage(cfg, settings, phmms, rgb)
+    online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+    reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
+    seed = cfg.seed + VALIDATION_SEED + _SEED_OFFSET
+    demos = (draw_demos(args.n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
+             + draw_demos(args.n_point, seed, cfg.demonstrators, cfg.handover_xy, kinds=("point",)))
+    rows = []
+    for demo in demos:
+        rec, tracked = _tracked_demo(cfg, settings, demo, rgb)
+        r = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+                              merge_gap=cfg.merge_gap, reach_phmm=reach, scene=scene_reader(cfg, rec, tracked))
+        rows.append((demo.kind, r.kind_phmm, r.kind))
+        print(f"{demo.kind}: the PHMMs {r.kind_phmm}, the loop {r.kind}", flush=True)
+    truth, phmm, loop = (np.array([row[k] or "" for row in rows]) for k in range(3))
+    for kind in ("transfer", "point"):
+        sel = truth == kind
+        print(f"{kind} ({sel.sum()}): the PHMMs right {np.mean(phmm[sel] == kind):.2f}, the loop {np.mean(loop[sel] == kind):.2f}")
+    turned = (phmm == "point") & (loop == "transfer")
+    print(f"all ({len(rows)}): the PHMMs {np.mean(phmm == truth):.2f}, the loop {np.mean(loop == truth):.2f}; "
+          f"pointings turned into transfers: {np.sum(turned & (truth == 'transfer'))} rightly, "
+          f"{np.sum(turned & (truth == 'point'))} wrongly")
+
+
+if __name__ == "__main__":
+    main()
