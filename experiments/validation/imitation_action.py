@@ -11,13 +11,12 @@ import argparse
 
 import numpy as np
 
-import phmm_jax as P
 from experiments.imitation import pipeline as pl
-from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
+from experiments.imitation.config import PRESETS, VALIDATION_SEED
 from experiments.imitation.demonstrations import draw_demos
-from experiments.imitation.stages import _tracked_demo, phmm_models, scene_reader, skin_models, validation_stage
+from experiments.imitation.stages import _tracked_demo, scene_reader
 from experiments.validation.imitation_grasp import _SEED_OFFSET
-from lfd_common import enable_compilation_cache
+from experiments.validation.imitation_place import loop_models
 
 
 def main() -> None:
@@ -26,14 +25,7 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=24, help="validation transfer demonstrations")
     parser.add_argument("--n-point", type=int, default=12, help="validation pointing demonstrations")
     args = parser.parse_args()
-    enable_compilation_cache()
-    cfg = Config(**PRESETS[args.preset])
-    settings = cfg.video_settings()
-    _, rgb = skin_models(cfg, settings)
-    phmms = phmm_models(cfg, settings)
-    offset, sigma, thr, _ = validation_stage(cfg, settings, phmms, rgb)
-    online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
-    reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
+    cfg, settings, rgb, online, reach, offset = loop_models(args.preset)
     seed = cfg.seed + VALIDATION_SEED + _SEED_OFFSET
     demos = (draw_demos(args.n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
              + draw_demos(args.n_point, seed, cfg.demonstrators, cfg.handover_xy, kinds=("point",)))

@@ -23,19 +23,25 @@ from experiments.validation.imitation_grasp import _SEED_OFFSET
 from lfd_common import enable_compilation_cache
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
-    parser.add_argument("--n", type=int, default=24, help="validation transfer demonstrations")
-    args = parser.parse_args()
+def loop_models(preset: str):
+    """(config, video settings, RGB skin model, online recogniser, reach PHMM, tracker offset) of the loop's
+    `preset`, its validation choices made as the loop makes them."""
     enable_compilation_cache()
-    cfg = Config(**PRESETS[args.preset])
+    cfg = Config(**PRESETS[preset])
     settings = cfg.video_settings()
     _, rgb = skin_models(cfg, settings)
     phmms = phmm_models(cfg, settings)
     offset, sigma, thr, _ = validation_stage(cfg, settings, phmms, rgb)
     online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
-    reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
+    return cfg, settings, rgb, online, P.with_observation_noise(phmms[pl.REACH], sigma ** 2), offset
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
+    parser.add_argument("--n", type=int, default=24, help="validation transfer demonstrations")
+    args = parser.parse_args()
+    cfg, settings, rgb, online, reach, offset = loop_models(args.preset)
     demos = draw_demos(args.n, cfg.seed + VALIDATION_SEED + _SEED_OFFSET, cfg.demonstrators, cfg.handover_xy,
                        kinds=("transfer",))
     actors = pl._Actors(settings)
