@@ -64,8 +64,16 @@ def test_moved_box_is_found_at_its_new_place(old_xy, new_xy):
     objects = np.array([STILL_XY, old_xy])
     for guess in (0, 1):  # the scene decides which object moved, whatever the guess
         res = scene_place(before, after, P, objects, guess, TABLE_Z + 0.05)
-        assert res.found and res.reason == "" and res.moved == 1
+        assert res.found and res.reason == "" and res.moved == 1 and not res.still
         assert np.linalg.norm(res.xy - np.array(new_xy)) < 0.015
+
+
+def test_a_scene_where_nothing_was_moved_is_still():
+    # a pointing: the lights and the person's posture change, no object does
+    P = _camera()
+    before, after = _frames(P, (-0.2, -0.45), (-0.2, -0.45))
+    res = scene_place(before, after, P, np.array([STILL_XY, (-0.2, -0.45)]), 1, TABLE_Z + 0.05)
+    assert res.still and res.moved == -1 and not res.found
 
 
 def test_hidden_new_place_is_flagged_not_guessed():
@@ -113,7 +121,7 @@ def test_moved_object_decides_only_when_one_position_changed():
     assert moved_object(changed, np.array([[25.0, 25.0], [-5.0, 60.0]]), 2.0) == -1  # nothing changed there
 
 
-def test_a_pointing_is_a_transfer_where_the_video_shows_an_object_moved(monkeypatch):
+def test_the_video_overrules_the_phmms_action_where_it_shows_an_object_moved_or_none(monkeypatch):
     from experiments.imitation import pipeline as pl
     from experiments.imitation.place import ScenePlace
 
@@ -123,12 +131,13 @@ def test_a_pointing_is_a_transfer_where_the_video_shows_an_object_moved(monkeypa
                          np.zeros((n, 2)), 0)
     objects = np.array([[0.0, -0.4], [0.2, -0.45], [-0.2, -0.5]])
     handover, new_place = np.array([-0.1, -0.3]), np.array([0.1, -0.3])
-    monkeypatch.setattr(pl, "movement", lambda *_: ("point", objects[0] + 0.01, 5, 30))   # the PHMMs: a pointing
 
-    def recognise(moved: int):
+    def recognise(moved: int, kind: str = "point", still: bool = False):
+        monkeypatch.setattr(pl, "movement", lambda *_: (kind, objects[0] + 0.01, 5, 30))   # the PHMMs' answer
+
         def scene(start, end, objects_xy, target):
             assert (start, end) == (5, 30)
-            return ScenePlace(moved, new_place if moved >= 0 else np.full(2, np.nan), moved >= 0, "")
+            return ScenePlace(moved, new_place if moved >= 0 else np.full(2, np.nan), moved >= 0, "", still)
         return pl.recognise_demo(None, tracked, np.zeros(3), 3, objects, handover, scene=scene)
 
     r = recognise(1)                                              # the video: object 1 moved to new_place
@@ -138,3 +147,6 @@ def test_a_pointing_is_a_transfer_where_the_video_shows_an_object_moved(monkeypa
     r = recognise(-1)                                             # the video does not decide: the PHMMs stand
     assert (r.kind, r.kind_phmm, r.target, r.grasp_frame) == ("point", "point", 0, -1)
     np.testing.assert_allclose(r.place_xy, handover)
+    assert recognise(-1, "transfer").kind == "transfer"
+    r = recognise(-1, "transfer", still=True)                     # the PHMMs' transfer moved nothing
+    assert (r.kind, r.kind_phmm, r.target, r.grasp_frame) == ("point", "transfer", 0, -1)

@@ -242,8 +242,7 @@ class Recognised(NamedTuple):
     orientation relative to the camera, NaN if none), place_from ("scene": the object's own displacement in
     the video, `experiments.imitation.place`; "hand": the hand's; "" for pointing), target_phmm (the object
     nearest the PHMMs' target; `target` differs from it where the video shows another object moved),
-    kind_phmm (the PHMMs' class; `kind` is "transfer" where they said "point" and the video shows an
-    object moved)."""
+    kind_phmm (the PHMMs' class; `kind` differs where the video shows an object moved, or none)."""
 
     kind: str | None
     target_xy: np.ndarray
@@ -321,7 +320,7 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     moved replaces the PHMMs' target, and its displacement the hand's from the grasp moment to the
     put-down, each where the video decides (None: the PHMMs' target and the hand's displacement). A
     movement the PHMMs call a pointing is a transfer where the video shows an object moved (a pointing
-    moves nothing)."""
+    moves nothing), and one they call a transfer is a pointing where it shows none moved (`still`)."""
     objects_xy = np.asarray(objects_xy, float)
     if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
         raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
@@ -336,9 +335,11 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     kind_phmm = kind
     target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
     seen = scene(s, e, objects_xy, target) if scene is not None else None
+    if seen is not None and seen.still:
+        kind = "point"                   # a transfer moves an object: the video shows none moved
     if kind == "point" and (seen is None or seen.moved < 0):
         return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan), "",
-                          target, kind)
+                          target, kind_phmm)
     kind = "transfer"
     g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e)
     from_reach = None if reach_phmm is None else reach_target(reach_phmm, stream[s:g + 1])

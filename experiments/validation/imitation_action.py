@@ -2,8 +2,9 @@
 pointing demonstrations of a validation seed of their own (the grasp stage's validation stream, not the
 evaluated ones) through the loop's front end, online PHMMs and validation choices; prints the action
 accuracy from the PHMMs alone and with the loop's rule (a movement the PHMMs call a pointing is a
-transfer where the video shows an object moved, `pipeline.recognise_demo` with `stages.scene_reader`),
-and how many pointings the rule turned into transfers, rightly and wrongly.
+transfer where the video shows an object moved, and one they call a transfer a pointing where it shows
+none moved; `pipeline.recognise_demo` with `stages.scene_reader`), and how many the rule turned, rightly
+and wrongly.
 
     python experiments/validation/imitation_action.py [--preset paper] [--n 24] [--n-point 12]
 """
@@ -40,10 +41,11 @@ def main() -> None:
     for kind in ("transfer", "point"):
         sel = truth == kind
         print(f"{kind} ({sel.sum()}): the PHMMs right {np.mean(phmm[sel] == kind):.2f}, the loop {np.mean(loop[sel] == kind):.2f}")
-    turned = (phmm == "point") & (loop == "transfer")
-    print(f"all ({len(rows)}): the PHMMs {np.mean(phmm == truth):.2f}, the loop {np.mean(loop == truth):.2f}; "
-          f"pointings turned into transfers: {np.sum(turned & (truth == 'transfer'))} rightly, "
-          f"{np.sum(turned & (truth == 'point'))} wrongly")
+    print(f"all ({len(rows)}): the PHMMs {np.mean(phmm == truth):.2f}, the loop {np.mean(loop == truth):.2f}")
+    for said, now in (("point", "transfer"), ("transfer", "point")):
+        turned = (phmm == said) & (loop == now)
+        print(f"  the PHMMs' {said} turned into a {now}: {np.sum(turned & (truth == now))} rightly, "
+              f"{np.sum(turned & (truth == said))} wrongly")
 
 
 if __name__ == "__main__":
