@@ -18,6 +18,7 @@ class Config:
     n_persons: int = 4                   # persons of the video settings; the last n_skin_persons train the skin models
     n_skin_persons: int = 1
     n_demos: int = 50                    # evaluated demonstrations
+    n_videos: int = 4                    # side-by-side videos (the person | the robot) of the first n_videos of them
     n_validation: int = 6                # validation demonstrations (own seed): feature offset, noise, threshold
     pad_frames: int = 25                 # recordings padded to a multiple of this (one compilation per length)
     # the level sets' coarse scale (TR §5; from 240 x 320 up) loses the hand held out from the body: off,
@@ -59,9 +60,9 @@ class Config:
     def __post_init__(self):
         if self.video_preset not in video.PRESETS:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
-        for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_validation", 1),
-                          ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1), ("phmm_iter", 1),
-                          ("min_blob_px_160", 1), ("grasp_db_pixels", 0), ("grasp_train_demos", 1)):
+        for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_videos", 1),
+                          ("n_validation", 1), ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1),
+                          ("phmm_iter", 1), ("min_blob_px_160", 1), ("grasp_db_pixels", 0), ("grasp_train_demos", 1)):
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
@@ -119,7 +120,7 @@ class Config:
 VALIDATION_SEED = 1000
 
 PRESETS = {
-    "quick": {"video_preset": "quick", "n_demos": 4, "n_validation": 2, "train_repetitions": 3, "phmm_iter": 10,
-              "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,), "grasp_database": "study"},
+    "quick": {"video_preset": "quick", "n_demos": 4, "n_videos": 1, "n_validation": 2, "train_repetitions": 3,
+              "phmm_iter": 10, "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,), "grasp_database": "study"},
     "paper": {},
 }

@@ -74,6 +74,13 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
                          _fmt(r["target_error_cm"]), d.grasp, r["grasp_recognised"], _fmt(r["place_error_cm"]),
                          r["failed_stage"]] for i, (d, r) in enumerate(zip(demos, results))]),
     ]
+    shown = zip(demos, results[:len(metrics["videos"])])
+    videos = [[f"[{video_name(i)}]({video_name(i)})", i, d.kind,
+               "done" if r["task_success"] else f"not done ({r['failed_stage']})"] for i, (d, r) in enumerate(shown)]
+    lines += ["", "## Side-by-side videos", "",
+              "The first demonstrations, not chosen: the person's left view (the tracked hand circled) beside the "
+              "robot (or, where no robot ran, a top view of what was recognised).", "",
+              markdown_table(["video", "#", "kind", "task"], videos)]
     lines += ["", "## Notes", "",
               "- Grasp recognition runs on the hand crop of the left view at the recognised grasp moment; at the quick "
               "preset's 160 x 120 the hand is about 10 pixels wide, so the grasp class is close to chance there.",
@@ -113,6 +120,11 @@ def _table_view(demo: Demo, result: dict, size: tuple[int, int]) -> np.ndarray:
     if np.isfinite(r.place_xy).all():
         cv2.rectangle(img, np.subtract(px(r.place_xy), 2), np.add(px(r.place_xy), 2), (230, 0, 0), -1)
     return img
+
+
+def video_name(i: int) -> str:
+    """The side-by-side video of the i-th demonstration (the first keeps its former name)."""
+    return "side_by_side.mp4" if i == 0 else f"side_by_side_{i}.mp4"
 
 
 def side_by_side(path, demo: Demo, result: dict, settings) -> Path:

@@ -281,7 +281,7 @@ def summarise(results: list[dict], robot_ran: bool) -> dict:
 
 
 def main(argv=None) -> dict:
-    from experiments.imitation.report import report, side_by_side
+    from experiments.imitation.report import report, side_by_side, video_name
 
     cfg, run = parse_config(Config, PRESETS, name="imitation", argv=argv)
     sim.setup_rendering()
@@ -293,9 +293,9 @@ def main(argv=None) -> dict:
     demos = draw_demos(cfg.n_demos, cfg.seed, cfg.demonstrators, cfg.handover_xy)
     results = []
     for i, demo in enumerate(progress(demos, desc="demonstrations")):
-        results.append(run_demo(cfg, settings, models, demo, render_robot=robot_ran and i == 0))
+        results.append(run_demo(cfg, settings, models, demo, render_robot=robot_ran and i < cfg.n_videos))
         r = results[-1]
-        if i:  # only the first demonstration's recording is drawn (side_by_side): 50 paper ones filled 9 GB
+        if i >= cfg.n_videos:  # only the first recordings are drawn (side_by_side): 50 paper ones filled 9 GB
             r.pop("rec")
         print(f"demo {i}: {demo.kind} object {demo.target} grasp {demo.grasp} -> {r['kind_recognised']} object "
               f"{r['target_recognised']} grasp {r['grasp_recognised']} ({r['target_error_cm']:.1f} cm); "
@@ -305,8 +305,9 @@ def main(argv=None) -> dict:
     metrics.update(val_metrics)
     metrics["prepare_time_s"] = prep_times
     metrics["runtime_s"] = runtime
-    path = side_by_side(run.file("side_by_side.mp4"), demos[0], results[0], settings)
-    metrics["video"] = path.name
+    paths = [side_by_side(run.file(video_name(i)), demos[i], results[i], settings)
+             for i in range(min(cfg.n_videos, len(demos)))]
+    metrics["video"], metrics["videos"] = paths[0].name, [p.name for p in paths]
     run.write(metrics, report(cfg, settings, demos, results, metrics), flat=False)
     print(f"wrote {run.path}/ in {runtime:.0f} s")
     return metrics
