@@ -214,7 +214,7 @@ def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) ->
     psi0 = _preferred_yaw(spec.grasp, spec.hand_rot, spec.object_xy[spec.target])
     plans = [_plan(spec, jax.tree.map(lambda a, i=i: a[i:i + 1], params), psi0 + np.radians(d), d, t)
              for i, t in enumerate(TILT_STEPS_DEG) for d in YAW_STEPS_DEG]
-    poses = np.stack([key_poses(p, spec.place_xy) for p in plans])                       # (Y, P, 3)
+    poses = np.stack([key_poses(p, spec.place_xy) for p in plans])          # (tilts x yaws, P, 3)
     n_plan, n_pose = poses.shape[:2]
     rots = np.repeat(np.stack([p.rot for p in plans]), n_pose, axis=0)
     ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_plan * n_pose, 1)), pos_tol=5e-3,
