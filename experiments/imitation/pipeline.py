@@ -344,9 +344,9 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e)
     from_reach = None if reach_phmm is None else reach_target(reach_phmm, stream[s:g + 1])
     if from_reach is not None:
-        xy = from_reach
+        xy, guessed = from_reach, target
         target = int(np.argmin(np.linalg.norm(objects_xy - xy, axis=1)))
-        if seen is not None and seen.moved < 0:   # not decided: the object now guessed is looked for
+        if seen is not None and seen.moved < 0 and target != guessed:   # not decided: the new guess is looked for
             seen = scene(s, e, objects_xy, target)
     by_phmm = target
     if seen is not None and seen.moved >= 0:

@@ -97,7 +97,11 @@ def moved_object(changed: np.ndarray, old_px: np.ndarray, radius_px: float, min_
     Chosen on the grasp stage's 24 validation transfers of the paper preset (true rest frames,
     scratch): decided in 22, right in 21 (the wrong one: a pitcher put down in front of the
     binoculars); with min_share 0.5, decided in 12, all right."""
-    shares = changed_shares(changed, old_px, radius_px)
+    return _decided(changed_shares(changed, old_px, radius_px), min_share, max_second)
+
+
+def _decided(shares: np.ndarray, min_share: float = 0.25, max_second: float = 0.5) -> int:
+    """`moved_object`'s rule on the objects' changed shares (K,)."""
     if len(shares) == 0:
         return -1
     order = np.argsort(shares)[::-1]
@@ -135,8 +139,8 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
         raise ValueError(f"target: expected an index of objects_xy (0-{len(objects_xy) - 1}), got {target}")
     b, a, changed = _changed(before, after, threshold)
     old_px = np.stack([project(P, np.r_[xy, old_height]) for xy in objects_xy])
-    moved = moved_object(changed, old_px, radius_px)
-    still = bool(changed_shares(changed, old_px, radius_px).max() < still_share)
+    shares = changed_shares(changed, old_px, radius_px)
+    moved, still = _decided(shares), bool(shares.max() < still_share)
     old_xy = objects_xy[moved if moved >= 0 else target]
     old_px = old_px[moved if moved >= 0 else target]
     changed = cv2.morphologyEx(changed.astype(np.uint8), cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
