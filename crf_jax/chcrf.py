@@ -78,11 +78,15 @@ def fuse_jit(log_pa: Array, log_po: Array, log_k: Array) -> CHCRFResult:
     # shift each factor by its max first, so that large unnormalised scores cannot overflow the sum
     pa_peak, po_peak, k_peak = _row_peak(log_pa, 1), _row_peak(log_po, 1), _row_peak(log_k, (0, 1))
     joint = (log_k - k_peak)[None] + (log_pa - pa_peak)[:, :, None] + (log_po - po_peak)[:, None, :]
+    # then by the joint's own row peak: where every product is tiny (rates near 1e-300 give log scores
+    # near -700), joint - log Z would otherwise lose float32 digits to their common magnitude
+    joint_peak = _row_peak(joint, (1, 2))
+    joint = joint - joint_peak
     log_z_shifted = safe_logsumexp(joint.reshape(joint.shape[0], -1), axis=-1)
     impossible = log_z_shifted == -jnp.inf
     log_joint = jnp.where(impossible[:, None, None], -jnp.inf,
                           joint - jnp.where(impossible, 0.0, log_z_shifted)[:, None, None])
-    log_z = log_z_shifted + pa_peak[:, 0] + po_peak[:, 0] + k_peak[0, 0]
+    log_z = log_z_shifted + joint_peak[:, 0, 0] + pa_peak[:, 0] + po_peak[:, 0] + k_peak[0, 0]
     return CHCRFResult(log_joint, log_z, safe_logsumexp(log_joint, axis=2), safe_logsumexp(log_joint, axis=1),
                        impossible)
 
