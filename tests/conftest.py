@@ -1,6 +1,9 @@
 import os
 
 os.environ.setdefault("LFD_NO_PROGRESS", "1")
+from tests.xla_level import use_fast_compile  # noqa: E402
+
+use_fast_compile()  # see tests/xla_level.py
 
 import jax  # noqa: E402
 

@@ -20,6 +20,7 @@ import numpy as np
 from sim.grasp_objects import GRASP_CLASSES
 from sim.grasp_rollout import GraspOutcomes, rollout_grasps
 from sim.grasp_strategy import TrialParams, plan_trials
+from tests.xla_level import default_level_env
 
 # The trials: one per grasp class, the 1 s hold shortened to this on both backends (on the shared
 # 2-core machine a 20-control-step MJX-JAX chunk of 6 worlds takes 3.5-7 s; the lift is unchanged).
@@ -71,7 +72,7 @@ def check_in_fresh_process(hand: str, settle_anywhere: frozenset = frozenset()) 
     docstring); its assertion message or crash is re-raised here as an AssertionError."""
     root = Path(__file__).resolve().parents[1]
     run = subprocess.run([sys.executable, "-m", "tests.grasp_equivalence", hand, *map(str, sorted(settle_anywhere))],
-                         cwd=root, capture_output=True, text=True, timeout=900)
+                         cwd=root, env=default_level_env(), capture_output=True, text=True, timeout=900)
     assert run.returncode == 0 and "EQUIVALENT" in run.stdout, (
         f"exit status {run.returncode}\n{run.stdout[-4000:]}\n{run.stderr[-6000:]}")
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from experiments.bench.object_peer import window
-from experiments.lfd_demonstration import main
 from experiments.lfd_demonstration.evaluate import (hand_width, held_object_motion, iou_by_bin, match_events,
                                                     pooled_iou, truth_windows)
+from tests.xla_level import run_experiment
 
 REQUIRED = ("object_mask_iou", "object_mask_iou_peer", "pickup_error_frames", "putdown_error_frames", "events_missed",
             "events_spurious", "runtime_s")
@@ -83,7 +83,8 @@ def test_hand_width_is_the_minor_axis_of_the_observed_blobs():
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("lfd_demonstration")
     # the clips and their CRF tables (minutes) run in `make demo`'s lfd stage, not here
-    return out, main(["--preset", "quick", "--out", str(out), "--script-oacs", "2", "--clip-repetitions", "0"])
+    return out, run_experiment("experiments.lfd_demonstration", ["--preset", "quick", "--out", str(out), "--script-oacs",
+                                                                 "2", "--clip-repetitions", "0"], out)
 
 
 def test_quick_preset_writes_every_metric_and_figure(quick_run):

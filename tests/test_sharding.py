@@ -22,7 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_every_mesh_entry_point_equals_one_device_on_four_forced_devices():
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4", JAX_PLATFORMS="cpu")
+    flags = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=4".strip()  # keep conftest's
+    env = dict(os.environ, XLA_FLAGS=flags, JAX_PLATFORMS="cpu")
     run = subprocess.run([sys.executable, "-m", "tests.sharded_checks"], cwd=ROOT, env=env, capture_output=True,
                          text=True, timeout=540)
     assert run.returncode == 0 and "ALL OK" in run.stdout, run.stdout + run.stderr[-4000:]

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from experiments.video_segmentation import main
+from tests.xla_level import run_experiment
 
 REQUIRED = ("iou_hand", "iou_face", "iou_person", "iou_object", "iou_hand_skin_only", "iou_hand_levelset_no_tracking",
             "hand_centroid_error_px", "hand_centroid_error_px_merged", "hand_error_3d_cm", "runtime_s")
@@ -15,7 +15,8 @@ REQUIRED = ("iou_hand", "iou_face", "iou_person", "iou_object", "iou_hand_skin_o
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("video_segmentation")
-    metrics = main(["--preset", "quick", "--out", str(out), "--max-clips", "1", "--cdnet-dir", str(out / "absent")])
+    metrics = run_experiment("experiments.video_segmentation", ["--preset", "quick", "--out", str(out), "--max-clips", "1",
+                                                                  "--cdnet-dir", str(out / "absent")], out)
     return out, metrics
 
 

@@ -1,0 +1,38 @@
+"""The test processes' XLA:CPU optimisation level, and how a test runs code at XLA's default level.
+
+The suite is compile-bound: at LLVM optimisation level 0 XLA:CPU compiles about twice as fast and runs
+the compiled code about twice as slow, so most test files finish sooner (README, "Tests"). Three checks
+spend their time running, not compiling (the MJX grasp rollouts, the video segmentation and LfD quick
+presets were 1.6-2.3x slower at level 0); they run in a subprocess at the default level
+(`default_level_env`, `run_experiment`). LFD_TEST_XLA_OPT=1 keeps the default level everywhere.
+"""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+FAST_COMPILE = "--xla_backend_optimization_level=0"
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def use_fast_compile() -> None:
+    """Add FAST_COMPILE to XLA_FLAGS (before JAX starts its CPU back end; subprocesses inherit it)."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    if os.environ.get("LFD_TEST_XLA_OPT") != "1" and FAST_COMPILE not in flags.split():
+        os.environ["XLA_FLAGS"] = f"{flags} {FAST_COMPILE}".strip()
+
+
+def default_level_env(**extra: str) -> dict:
+    """os.environ (plus `extra`) with FAST_COMPILE taken out of XLA_FLAGS."""
+    env = dict(os.environ, **extra)
+    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split() if f != FAST_COMPILE)
+    return env
+
+
+def run_experiment(module: str, argv: list[str], out: Path) -> dict:
+    """`python -m module *argv` at the default level; its `out`/metrics.json (argv must write there)."""
+    run = subprocess.run([sys.executable, "-m", module, *argv], cwd=ROOT, env=default_level_env(),
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, f"exit status {run.returncode}\n{run.stdout[-3000:]}\n{run.stderr[-6000:]}"
+    return json.loads((Path(out) / "metrics.json").read_text())
