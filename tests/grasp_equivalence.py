@@ -11,16 +11,14 @@ crash there killed the worker and hung pytest-xdist. The same check in a fresh p
 either half of that worker's test files, passes. (The pytest processes now use no persistent cache
 at all, tests/conftest.py; this process keeps it, so the MJX compile is shared with later runs.)
 """
-import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from sim.grasp_objects import GRASP_CLASSES
 from sim.grasp_rollout import GraspOutcomes, rollout_grasps
 from sim.grasp_strategy import TrialParams, plan_trials
-from tests.xla_level import default_level_env
+from tests.xla_level import run_module
 
 # The trials: one per grasp class, the 1 s hold shortened to this on both backends (on the shared
 # 2-core machine a 20-control-step MJX-JAX chunk of 6 worlds takes 3.5-7 s; the lift is unchanged).
@@ -68,14 +66,9 @@ def check_native_and_mjx_jax_agree(hand: str, settle_anywhere: frozenset = froze
 
 
 def check_in_fresh_process(hand: str, settle_anywhere: frozenset = frozenset()) -> None:
-    """`check_native_and_mjx_jax_agree(hand, settle_anywhere)` in a new Python process (see the module
-    docstring); its assertion message or crash is re-raised here as an AssertionError."""
-    root = Path(__file__).resolve().parents[1]
-    run = subprocess.run([sys.executable, "-m", "tests.grasp_equivalence", hand, *map(str, sorted(settle_anywhere))],
-                         cwd=root, env=default_level_env(), capture_output=True, text=True, timeout=900)
-    assert run.returncode == 0 and "EQUIVALENT" in run.stdout, (
-        f"exit status {run.returncode}\n{run.stdout[-4000:]}\n{run.stderr[-6000:]}")
-
+    """`check_native_and_mjx_jax_agree(hand, settle_anywhere)` in a new Python process at XLA's default
+    optimisation level (see the module docstring, `tests.xla_level.run_module`)."""
+    run_module("tests.grasp_equivalence", hand, *map(str, sorted(settle_anywhere)), expect="EQUIVALENT")
 
 if __name__ == "__main__":
     from lfd_common import enable_compilation_cache

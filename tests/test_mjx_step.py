@@ -9,6 +9,7 @@ import pytest
 from mujoco import mjx
 
 from sim.rollout import mjx_step
+from tests.xla_level import run_module
 
 # A damped, actuated pendulum (implicit damping) and a free ball that falls onto the plane and the
 # pendulum, so the steps have contacts and the Newton solver runs. Spheres only: a small program.
@@ -76,6 +77,12 @@ def unordered_lapack_pairs(hlo: str) -> int:
 
 
 def test_mjx_step_is_mjx_step_with_every_lapack_call_ordered():
+    """`check_mjx_step_orders_every_lapack_call` in a fresh process at XLA's default level: at the end
+    of a long pytest worker this compile aborted once (tests/xla_level.py)."""
+    run_module("tests.test_mjx_step", expect="ORDERED")
+
+
+def check_mjx_step_orders_every_lapack_call():
     """150 steps of 2 worlds with the ordered step and with MJX's own: the same state (float32
     round-off: the extra dependency may change how XLA fuses the same operations), the ball fell;
     and in XLA's optimized programs, MJX's `mjx.step` leaves the implicit
@@ -104,3 +111,8 @@ def test_mjx_step_rejects_other_integrators():
     model = mujoco.MjModel.from_xml_string(_XML.format(integrator="RK4"))
     with pytest.raises(ValueError, match="integrator"):
         mjx_step(mjx.put_model(model, impl="jax"), mjx.make_data(model, impl="jax"))
+
+
+if __name__ == "__main__":
+    check_mjx_step_orders_every_lapack_call()
+    print("ORDERED")

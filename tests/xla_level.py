@@ -3,8 +3,9 @@
 The suite is compile-bound: at LLVM optimisation level 0 XLA:CPU compiles about twice as fast and runs
 the compiled code about twice as slow, so most test files finish sooner (README, "Tests"). Three checks
 spend their time running, not compiling (the MJX grasp rollouts, the video segmentation and LfD quick
-presets were 1.6-2.3x slower at level 0); they run in a subprocess at the default level
-(`default_level_env`, `run_experiment`). LFD_TEST_XLA_OPT=1 keeps the default level everywhere.
+presets were 1.6-2.3x slower at level 0); they run in a subprocess at the default level (`run_module`,
+`run_experiment`). So does the MJX step check: a long pytest worker aborted once in its compile (the
+jaxlib crashes of conftest.py). LFD_TEST_XLA_OPT=1 keeps the default level everywhere.
 """
 import json
 import os
@@ -30,9 +31,17 @@ def default_level_env(**extra: str) -> dict:
     return env
 
 
-def run_experiment(module: str, argv: list[str], out: Path) -> dict:
-    """`python -m module *argv` at the default level; its `out`/metrics.json (argv must write there)."""
-    run = subprocess.run([sys.executable, "-m", module, *argv], cwd=ROOT, env=default_level_env(),
+def run_module(module: str, *args: str, expect: str = "") -> str:
+    """`python -m module *args` in a fresh process at the default level; its stdout. Asserts exit status 0
+    and `expect` in the output, with the output's tail as the message."""
+    run = subprocess.run([sys.executable, "-m", module, *args], cwd=ROOT, env=default_level_env(),
                          capture_output=True, text=True, timeout=900)
-    assert run.returncode == 0, f"exit status {run.returncode}\n{run.stdout[-3000:]}\n{run.stderr[-6000:]}"
+    assert run.returncode == 0 and expect in run.stdout, (
+        f"exit status {run.returncode}\n{run.stdout[-4000:]}\n{run.stderr[-6000:]}")
+    return run.stdout
+
+
+def run_experiment(module: str, argv: list[str], out: Path) -> dict:
+    """`run_module(module, *argv)`; its `out`/metrics.json (argv must write there)."""
+    run_module(module, *argv)
     return json.loads((Path(out) / "metrics.json").read_text())
