@@ -16,4 +16,4 @@ def test_native_and_mjx_jax_agree_karlsruhe():
 
     Cost: one MJX program (6 worlds, 20-control-step chunks), compiled in a fresh process.
     """
-    check_in_fresh_process("karlsruhe", settle_anywhere=frozenset({9}))
+    assert "EQUIVALENT" in check_in_fresh_process("karlsruhe", settle_anywhere=frozenset({9}))

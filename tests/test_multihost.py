@@ -3,11 +3,12 @@ of the data (`jax.make_array_from_process_local_data` via `lfd_common.shard`): a
 query equal the single-process results (`tests/multihost_worker.py`)."""
 from __future__ import annotations
 
-import os
 import socket
 import subprocess
 import sys
 from pathlib import Path
+
+from tests.xla_level import forced_devices_env
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -20,8 +21,7 @@ def _free_port() -> int:
 
 def test_em_step_and_lsh_query_across_two_processes_equal_one_process():
     port = _free_port()
-    flags = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2".strip()  # keep conftest's
-    env = dict(os.environ, XLA_FLAGS=flags, JAX_PLATFORMS="cpu")
+    env = forced_devices_env(2)
     procs = [subprocess.Popen([sys.executable, "-m", "tests.multihost_worker", str(i), str(port)], cwd=ROOT,
                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for i in range(2)]

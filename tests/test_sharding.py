@@ -5,7 +5,6 @@ one subprocess with 4 forced CPU devices; the argument checks run here on this p
 """
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -17,13 +16,13 @@ import crf_jax
 import hog_jax as H
 import phmm_jax as P
 from lfd_common import batch_mesh, check_mesh, shard, unshard
+from tests.xla_level import forced_devices_env
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_every_mesh_entry_point_equals_one_device_on_four_forced_devices():
-    flags = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=4".strip()  # keep conftest's
-    env = dict(os.environ, XLA_FLAGS=flags, JAX_PLATFORMS="cpu")
+    env = forced_devices_env(4)
     run = subprocess.run([sys.executable, "-m", "tests.sharded_checks"], cwd=ROOT, env=env, capture_output=True,
                          text=True, timeout=540)
     assert run.returncode == 0 and "ALL OK" in run.stdout, run.stdout + run.stderr[-4000:]
