@@ -92,8 +92,8 @@ def test_experiment_smoke(tmp_path):
             "--k-values", "1,3", "--db-grids", "6x2", "--bins-sweep", "4", "--levels-sweep", "3",
             "--n-skin-images", "3", "--timing-repeats", "1",
             # the paths beyond the paper: randomised views, a network class, LSH tuned on validation images
-            "--n-random-views", "4", "--random-pool", "6", "--n-random-hands", "2", "--classifier", "mlp",
-            "--classifier-epochs", "2", "--lsh-probes", "1", "--lsh-tuning", "validation", "--n-validation", "12", "--ladder", "true"]
+            "--n-random-views", "4", "--random-pool", "6", "--n-random-hands", "2", "--classifier", "cnn",
+            "--cnn-epochs", "1", "--cnn-width", "2", "--lsh-probes", "1", "--lsh-tuning", "validation", "--n-validation", "12", "--ladder", "true"]
     m = gr.main(argv)
     for key in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large", "lsh_recall_at_k", "query_ms",
                 "orientation_geodesic_error_deg_X", "orientation_geodesic_error_deg_correct"):

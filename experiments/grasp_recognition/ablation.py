@@ -58,6 +58,9 @@ VARIANTS: dict[str, dict] = {
                                                            skin_adaptation="background"),
     "DR 10x + MLP on HOG B6 L4 soft + skin model adapted (background)": dict(
         n_random_views=8100, classifier="mlp", n_bins=6, n_levels=4, hog_binning="soft", skin_adaptation="background"),
+    "DR 10x + convnet on the crops": dict(n_random_views=8100, classifier="cnn"),
+    "DR 10x + LDA + skin model adapted (background) + convnet": dict(n_random_views=8100, metric="lda",
+                                                                     skin_adaptation="background", classifier="cnn"),
 }
 
 

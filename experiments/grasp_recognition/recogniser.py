@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+import hashlib
+
 import jax
 import numpy as np
 
@@ -11,6 +13,7 @@ import hog_jax
 from experiments.config import progress
 from experiments.grasp_recognition.classifier import classify, fit_classifier
 from experiments.grasp_recognition.config import Config
+from experiments.grasp_recognition.convnet import ConvClassifier, cached_convnet, classify_crops, fit_convnet
 from experiments.grasp_recognition.pieces import hog_features, knn_predict
 from sim.grasp_objects import GRASP_CLASSES
 
@@ -19,7 +22,8 @@ class Recogniser(NamedTuple):
     """hog: the HOG settings; metric: a `hog_jax.LinearMetric` or None (plain HOG distance); model: the
     kNN model on the database's (transformed) features; lsh: `hog_jax.predict`'s index arguments; tune:
     the `hog_jax.TuneResult` they came from; k; db: the database (images, labels, orientations); net: a
-    `classifier.NetClassifier` that gives the class instead of eq. 3's vote, or None."""
+    `classifier.NetClassifier` (on HOG) or a `convnet.ConvClassifier` (on the crops) that gives the class
+    instead of eq. 3's vote, or None."""
 
     hog: hog_jax.HOGConfig
     metric: Any
@@ -64,6 +68,8 @@ def build_recogniser(cfg: Config, key, db, tune_images: tuple[np.ndarray, np.nda
     if cfg.classifier == "mlp":
         net = fit_classifier(x, db.labels, len(GRASP_CLASSES), cfg.seed, cfg.classifier_hidden, cfg.classifier_epochs,
                              progress=lambda it, total: progress(it, desc="train", total=total))
+    elif cfg.classifier == "cnn":
+        net = trained_convnet(cfg, db)
     x = transformed(metric, x)
     model = hog_jax.fit(x, db.labels, db.euler, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
     if tune_images is None:
@@ -78,6 +84,17 @@ def build_recogniser(cfg: Config, key, db, tune_images: tuple[np.ndarray, np.nda
     return Recogniser(hcfg, metric, model, lsh, tune, cfg.k, db, net)
 
 
+def trained_convnet(cfg: Config, db) -> ConvClassifier:
+    """The convnet trained on the database `db` (cached by the database's content and the settings)."""
+    digest = hashlib.sha1()
+    for a in (db.images, db.masks, db.labels):
+        digest.update(np.ascontiguousarray(a).tobytes())
+    settings = dict(database=digest.hexdigest(), seed=cfg.seed, width=cfg.cnn_width, epochs=cfg.cnn_epochs)
+    return cached_convnet(settings, lambda: fit_convnet(
+        db.images, db.masks, db.labels, len(GRASP_CLASSES), cfg.seed, cfg.cnn_width, cfg.cnn_epochs,
+        progress=lambda it, total: progress(it, desc="train convnet", total=total)))
+
+
 def features(rec: Recogniser, images, masks, found) -> np.ndarray:
     """(N, D') features of crops (N, S, S) with masks; rows where `found` is False are zero (unused)."""
     return transformed(rec.metric, hog_features(images, masks, found, rec.hog)) * found[:, None]
@@ -88,7 +105,11 @@ def net_labels(rec: Recogniser, images, masks, found) -> np.ndarray | None:
     if rec.net is None:
         return None
     labels = np.full(len(images), -1, np.int32)
-    if found.any():
+    if not found.any():
+        return labels
+    if isinstance(rec.net, ConvClassifier):
+        labels[found] = classify_crops(rec.net, images[found], masks[found])
+    else:
         labels[found] = classify(rec.net, hog_features(images[found], masks[found], np.ones(int(found.sum()), bool),
                                                        rec.hog))
     return labels

@@ -1,0 +1,171 @@
+"""A small convolutional network on the hand crops (issue 20, beyond the paper): the grasp class from the
+masked pixels instead of from HOG, trained on the database only (grid and domain-randomised views) with
+augmentation for what skin segmentation does to a query crop (shifts, brightness, holes in the mask).
+Orientation stays eq. 4 (`recogniser.recognise`), from database views of the predicted class.
+
+Input: two channels per crop, the grey image times its mask and the mask. Layers: 3x3 convolutions,
+ReLU, stride 2 four times (S -> S / 16) with one stride-1 layer after the first, `width`, 2, 4, 8 x
+`width` channels, dropout 0.3 on the flattened map, a 256-unit dense layer, 6 logits.
+
+Shapes: N crops, S x S pixels (S a multiple of 16), M classes.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from lfd_common import as_array, cache_dir, check_int, load_arrays, save_arrays
+
+_HIDDEN = 256
+_DROPOUT_KEEP = 0.7
+_SHIFT = 0.1  # of the crop's side
+_VERSION = 1
+
+
+class ConvClassifier(NamedTuple):
+    """params: flat name -> array dict of the network's weights (`_init`)."""
+
+    params: dict
+
+
+def _conv_init(key, cin: int, cout: int) -> tuple[jax.Array, jax.Array]:
+    return jax.random.normal(key, (3, 3, cin, cout)) * np.sqrt(2.0 / (9 * cin)), jnp.zeros(cout)
+
+
+def _init(key, size: int, n_classes: int, width: int) -> dict:
+    ks = jax.random.split(key, 7)
+    chans = (2, width, 2 * width, 4 * width, 8 * width)
+    p = {}
+    for i, name in enumerate(("c0", "c1", "c2", "c3")):
+        p[f"{name}_w"], p[f"{name}_b"] = _conv_init(ks[i], chans[i], chans[i + 1])
+    p["c0b_w"], p["c0b_b"] = _conv_init(ks[4], width, width)
+    n_flat = (size // 16) ** 2 * 8 * width
+    p["d1_w"], p["d1_b"] = jax.random.normal(ks[5], (n_flat, _HIDDEN)) * np.sqrt(2.0 / n_flat), jnp.zeros(_HIDDEN)
+    p["d2_w"], p["d2_b"] = jax.random.normal(ks[6], (_HIDDEN, n_classes)) * np.sqrt(1.0 / _HIDDEN), jnp.zeros(n_classes)
+    return p
+
+
+def _conv(x, p: dict, name: str, stride: int):
+    y = jax.lax.conv_general_dilated(x, p[f"{name}_w"], (stride, stride), "SAME",
+                                     dimension_numbers=("NHWC", "HWIO", "NHWC"))
+    return jax.nn.relu(y + p[f"{name}_b"])
+
+
+def logits(params: dict, x: jax.Array, dropout_key=None) -> jax.Array:
+    """(N, M) class logits of inputs x (N, S, S, 2); dropout on the flattened map when a key is given."""
+    h = _conv(x, params, "c0", 2)
+    h = _conv(h, params, "c0b", 1)
+    for name in ("c1", "c2", "c3"):
+        h = _conv(h, params, name, 2)
+    h = h.reshape(h.shape[0], -1)
+    if dropout_key is not None:
+        h = h * jax.random.bernoulli(dropout_key, _DROPOUT_KEEP, h.shape) / _DROPOUT_KEEP
+    return jax.nn.relu(h @ params["d1_w"] + params["d1_b"]) @ params["d2_w"] + params["d2_b"]
+
+
+def augment(key, x: jax.Array) -> jax.Array:
+    """Inputs x (N, S, S, 2) as a query crop might look: shifted by up to S / 10 pixels, the grey
+    channel scaled by U(0.6, 1.3), and up to three rectangular holes with sides of S / 16 to S / 4
+    (each with probability 0.5) cut from both channels, as skin segmentation leaves holes in a hand."""
+    n, size = x.shape[0], x.shape[1]
+    shift = int(round(_SHIFT * size))
+    k_shift, k_gain, k_centre, k_side, k_use = jax.random.split(key, 5)
+    padded = jnp.pad(x, ((0, 0), (shift, shift), (shift, shift), (0, 0)))
+    offsets = jax.random.randint(k_shift, (n, 2), 0, 2 * shift + 1)
+    x = jax.vmap(lambda im, o: jax.lax.dynamic_slice(im, (o[0], o[1], 0), (size, size, 2)))(padded, offsets)
+    gain = jax.random.uniform(k_gain, (n, 1, 1, 1), minval=0.6, maxval=1.3)
+    rows, cols = jnp.mgrid[:size, :size]
+    centre = jax.random.randint(k_centre, (n, 3, 2), 0, size)[..., None, None]
+    half = jax.random.randint(k_side, (n, 3, 2), size // 16, size // 4 + 1)[..., None, None] // 2
+    used = jax.random.bernoulli(k_use, 0.5, (n, 3))[..., None, None]
+    hole = ((jnp.abs(rows - centre[:, :, 0]) < half[:, :, 0]) & (jnp.abs(cols - centre[:, :, 1]) < half[:, :, 1])
+            & used).any(1)
+    return jnp.concatenate([x[..., :1] * gain, x[..., 1:]], -1) * (~hole)[..., None]
+
+
+def network_input(images, masks) -> np.ndarray:
+    """(N, S, S, 2) float32: the crops (N, S, S) times their masks, and the masks. ValueError naming the
+    argument for a wrong shape, non-finite pixels or S not a multiple of 16."""
+    images = as_array(images, "images", ndim=3, dtype=np.float32)
+    if images.shape[1] != images.shape[2] or images.shape[1] % 16 or images.shape[1] == 0:
+        raise ValueError(f"images: expected square crops (N, S, S) with S a multiple of 16, got {images.shape}")
+    masks = np.asarray(masks)
+    if masks.shape != images.shape:
+        raise ValueError(f"masks: expected the images' shape {images.shape}, got {masks.shape}")
+    m = masks.astype(np.float32)
+    return np.stack([images * m, m], -1)
+
+
+@partial(jax.jit, static_argnames=("optimizer",))
+def _epoch(optimizer, params, opt_state, key, data, labels, order):
+    """One pass over the minibatches `order` (n_batches, batch) of the device-resident data, by `lax.scan`."""
+    def step(carry, idx):
+        p, s, k = carry
+        k, k_aug, k_drop = jax.random.split(k, 3)
+        xb = augment(k_aug, data[idx])
+        loss, g = jax.value_and_grad(lambda p: optax.softmax_cross_entropy_with_integer_labels(
+            logits(p, xb, k_drop), labels[idx]).mean())(p)
+        updates, s = optimizer.update(g, s, p)
+        return (optax.apply_updates(p, updates), s, k), loss
+
+    (params, opt_state, _), losses = jax.lax.scan(step, (params, opt_state, key), order)
+    return params, opt_state, losses.mean()
+
+
+def fit_convnet(images, masks, labels, n_classes: int, seed: int = 0, width: int = 16, epochs: int = 10,
+                batch: int = 128, learning_rate: float = 2e-3, weight_decay: float = 5e-4,
+                progress=None) -> ConvClassifier:
+    """Train the network on crops (N, S, S) with masks and labels (N,) in [0, n_classes): AdamW with a
+    cosine-decayed rate on the cross-entropy of augmented (`augment`) shuffled minibatches, `epochs`
+    passes. `progress(iterable, total)` wraps the epochs."""
+    x = network_input(images, masks)
+    labels = as_array(labels, "labels", shape=(len(x),), dtype=np.int32)
+    n_classes = check_int(n_classes, "n_classes", min_value=2)
+    if labels.min(initial=0) < 0 or labels.max(initial=0) >= n_classes:
+        raise ValueError(f"labels: expected values in [0, {n_classes}), got [{labels.min()}, {labels.max()}]")
+    width, epochs = check_int(width, "width", min_value=1), check_int(epochs, "epochs", min_value=1)
+    batch = min(check_int(batch, "batch", min_value=1), len(x))
+    n_batches = len(x) // batch
+    optimizer = optax.adamw(optax.cosine_decay_schedule(learning_rate, epochs * n_batches), weight_decay=weight_decay)
+    params = _init(jax.random.key(seed), x.shape[1], n_classes, width)
+    opt_state = optimizer.init(params)
+    data, y = jnp.asarray(x), jnp.asarray(labels)
+    rng, key = np.random.default_rng(seed), jax.random.key(seed + 1)
+    loop = range(epochs) if progress is None else progress(range(epochs), epochs)
+    for epoch in loop:  # epochs: each one compiled scan over its minibatches
+        order = rng.permutation(len(x))[: n_batches * batch].reshape(n_batches, batch)
+        params, opt_state, _ = _epoch(optimizer, params, opt_state, jax.random.fold_in(key, epoch), data, y,
+                                      jnp.asarray(order))
+    return ConvClassifier(jax.device_get(params))
+
+
+@jax.jit
+def _predict(params, x):
+    return jnp.argmax(logits(params, x), axis=1).astype(jnp.int32)
+
+
+def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256) -> np.ndarray:
+    """(N,) class indices of crops (N, S, S) with masks, `chunk` crops at a time (bounded memory)."""
+    x = network_input(images, masks)
+    return np.concatenate([np.asarray(_predict(clf.params, jnp.asarray(x[i:i + chunk])))
+                           for i in range(0, len(x), chunk)] or [np.zeros(0, np.int32)])
+
+
+def cached_convnet(settings: dict, train) -> ConvClassifier:
+    """The network `train()` returns, stored under cache_dir('grasp_cnn') by a hash of `settings` (what
+    determines the training data and the training: JSON-serialisable) and reused while they match."""
+    key = hashlib.sha1(json.dumps({**settings, "version": _VERSION}, sort_keys=True).encode()).hexdigest()[:16]
+    path = cache_dir("grasp_cnn") / f"convnet_{key}.npz"
+    if path.exists():
+        arrays, _, _ = load_arrays(path, "experiments.ConvClassifier")
+        return ConvClassifier(arrays)
+    clf = train()
+    save_arrays(path, "experiments.ConvClassifier", clf.params, config=settings)
+    return clf

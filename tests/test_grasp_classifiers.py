@@ -1,0 +1,71 @@
+"""The learned grasp classifiers beside eq. 3's kNN (issue 20): the convnet on crops, the perceptron on HOG."""
+import numpy as np
+import pytest
+
+from experiments.grasp_recognition import convnet
+from experiments.grasp_recognition.classifier import classify, fit_classifier
+
+
+def _bars(n: int, seed: int, size: int = 32):
+    """Crops of one of three shapes at a random place: a horizontal bar, a vertical bar, a square."""
+    rng = np.random.default_rng(seed)
+    labels = np.arange(n) % 3
+    masks = np.zeros((n, size, size), bool)
+    for i, c in enumerate(labels):  # building the toy set, not a hot path
+        r, q = rng.integers(4, size - 20, 2)
+        h, w = [(4, 16), (16, 4), (10, 10)][c]
+        masks[i, r:r + h, q:q + w] = True
+    images = masks * rng.uniform(0.5, 1.0, (n, 1, 1)).astype(np.float32)
+    return images.astype(np.float32), masks, labels
+
+
+def test_convnet_learns_shapes_it_was_not_shown():
+    images, masks, labels = _bars(96, 0)
+    clf = convnet.fit_convnet(images, masks, labels, 3, width=4, epochs=25, batch=32)
+    new_images, new_masks, new_labels = _bars(60, 1)
+    assert np.mean(convnet.classify_crops(clf, new_images, new_masks) == new_labels) >= 0.9
+
+
+def test_augment_shifts_and_cuts_holes_but_adds_nothing():
+    import jax
+    _, masks, _ = _bars(8, 2)
+    x = convnet.network_input(masks.astype(np.float32), masks)
+    out = np.asarray(convnet.augment(jax.random.key(0), x))
+    assert out.shape == x.shape
+    assert np.all(np.isin(out[..., 1], (0.0, 1.0)))  # the mask stays a mask
+    assert np.all(out[..., 1].sum((1, 2)) <= x[..., 1].sum((1, 2)))  # holes and shifts only remove
+    assert np.all(out[..., 0] <= 1.3 * out[..., 1] + 1e-6)  # grey only where the mask is, gain at most 1.3
+
+
+def test_convnet_rejects_bad_input():
+    images, masks, labels = _bars(6, 3)
+    with pytest.raises(ValueError, match="images"):
+        convnet.network_input(images[:, :30, :30], masks[:, :30, :30])
+    with pytest.raises(ValueError, match="masks"):
+        convnet.network_input(images, masks[:, :8])
+    with pytest.raises(ValueError, match="images"):
+        convnet.network_input(np.where(masks, np.nan, images), masks)
+    with pytest.raises(ValueError, match="labels"):
+        convnet.fit_convnet(images, masks, labels + 3, 3)
+
+
+def test_cached_convnet_trains_once_per_settings(tmp_path, monkeypatch):
+    monkeypatch.setenv("LFD_JAX_CACHE", str(tmp_path))
+    calls = []
+
+    def train():
+        calls.append(1)
+        return convnet.ConvClassifier({"w": np.arange(3.0)})
+
+    first = convnet.cached_convnet({"a": 1}, train)
+    again = convnet.cached_convnet({"a": 1}, train)
+    convnet.cached_convnet({"a": 2}, train)
+    assert len(calls) == 2 and np.array_equal(again.params["w"], first.params["w"])
+
+
+def test_perceptron_separates_two_clouds():
+    rng = np.random.default_rng(4)
+    labels = np.arange(200) % 2
+    x = rng.normal(0, 1, (200, 5)) + 3.0 * labels[:, None]
+    clf = fit_classifier(x, labels, 2, epochs=20, batch=50, hidden=16, learning_rate=1e-2)
+    assert np.mean(classify(clf, x) == labels) >= 0.95
