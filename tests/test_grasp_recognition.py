@@ -96,7 +96,7 @@ def test_experiment_smoke(tmp_path):
             "--cnn-epochs", "1", "--cnn-width", "2", "--lsh-probes", "1", "--lsh-tuning", "validation", "--n-validation", "12", "--ladder", "true"]
     m = gr.main(argv)
     for key in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large", "lsh_recall_at_k", "query_ms",
-                "orientation_geodesic_error_deg_X", "orientation_geodesic_error_deg_correct"):
+                "orientation_geodesic_error_deg_X", "orientation_geodesic_error_deg_correct", "classifier_ms"):
         assert key in m
     assert all(0.0 <= m[k] <= 1.0 for k in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large"))
     assert m["n_database_views"] == 6 * (24 + 4) and m["n_test_X"] == 36

@@ -29,6 +29,8 @@ def report(cfg: Config, m: dict, nested: dict, mats: dict) -> str:
          f"{m['lsh_recall_at_k']:.3f} / {m['lsh_recall_at_k_tuning']:.3f}", "ε = 0.05"),
         ("accuracy, the recogniser / eq. 3 by exact kNN (large)", f"{m['accuracy_large']:.3f} / {m['accuracy_large_exact_knn']:.3f}", "-"),
         ("query time LSH / exact", f"{m['query_ms']:.3f} / {m['query_ms_exact']:.3f} ms", "-"),
+        *([(f"the {cfg.classifier}'s class, time per image", f"{m['classifier_ms']:.3f} ms", "-")]
+          if "classifier_ms" in m else []),
         ("hand found by skin segmentation, X / large", f"{100 * m['segmentation_found_rate_X']:.0f} % / "
          f"{100 * m['segmentation_found_rate_large']:.0f} %", "-"),
         ("recognised (a hand found and an LSH neighbour), X / large", f"{100 * m['recognised_rate_X']:.0f} % / "
