@@ -47,6 +47,8 @@ def test_convnet_rejects_bad_input():
         convnet.network_input(np.where(masks, np.nan, images), masks)
     with pytest.raises(ValueError, match="labels"):
         convnet.fit_convnet(images, masks, labels + 3, 3)
+    with pytest.raises(ValueError, match="images"):
+        convnet.network_input(images[:0], masks[:0])
 
 
 def test_cached_convnet_trains_once_per_settings(tmp_path, monkeypatch):

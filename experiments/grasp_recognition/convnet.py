@@ -151,10 +151,10 @@ def _predict(params, x):
 
 
 def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256) -> np.ndarray:
-    """(N,) class indices of crops (N, S, S) with masks, `chunk` crops at a time (bounded memory)."""
+    """(N,) class indices of crops (N, S, S) with masks (N >= 1), `chunk` crops at a time (bounded memory)."""
     x = network_input(images, masks)
     return np.concatenate([np.asarray(_predict(clf.params, jnp.asarray(x[i:i + chunk])))
-                           for i in range(0, len(x), chunk)] or [np.zeros(0, np.int32)])
+                           for i in range(0, len(x), chunk)])
 
 
 def cached_convnet(settings: dict, train) -> ConvClassifier:
