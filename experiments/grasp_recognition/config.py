@@ -57,8 +57,10 @@ class Config:
             raise ValueError("n_azimuth, n_elevation, k, n_large, n_held_out and timing_repeats must be >= 1")
         if not 0 <= self.db_pixels <= self.crop_size:
             raise ValueError(f"db_pixels: expected 0 (none) or at most crop_size {self.crop_size}, got {self.db_pixels}")
-        if min(self.cnn_width, self.cnn_epochs) < 1 or self.crop_size % 16:
-            raise ValueError("cnn_width and cnn_epochs must be >= 1 and crop_size a multiple of 16")
+        if min(self.cnn_width, self.cnn_epochs) < 1:
+            raise ValueError("cnn_width and cnn_epochs must be >= 1")
+        if self.classifier == "cnn" and self.crop_size % 16:
+            raise ValueError(f"crop_size: the convnet needs a multiple of 16, got {self.crop_size}")
         if min(self.n_random_views, self.lsh_probes, self.metric_components) < 0 or self.n_random_hands < 1:
             raise ValueError("n_random_views, lsh_probes, metric_components must be >= 0, n_random_hands >= 1")
         if self.n_random_views > self.random_pool or self.random_pool < self.n_random_hands:

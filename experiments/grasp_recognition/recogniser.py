@@ -2,9 +2,8 @@
 the kNN model (eqs. 3-5) and the tuned LSH index; `recognise` gives class and orientation per crop."""
 from __future__ import annotations
 
-from typing import Any, NamedTuple
-
 import hashlib
+from typing import Any, NamedTuple
 
 import jax
 import numpy as np
