@@ -19,7 +19,8 @@ Pipeline (`segment`):
    (0.299 R + 0.587 G + 0.114 B, scaled to [0, 1]) with the pixels outside the component set to 0
    (black background, as GRASP's segmented images), and resampled to S x S (bilinear, antialiased;
    batched in JAX); the component mask is resampled likewise (kept where > 0.5) so that `hog` can
-   exclude the background.
+   exclude the background; the same box of the grey frame without the mask is returned too (`context`:
+   what is around the hand, e.g. the held object, for a recogniser that uses it).
 A frame without skin gives found = False, a zero image, an all-False mask and box (-1, -1, -1, -1).
 
 Persistence (`save_skin_model` / `load_skin_model`): a `SkinModel` is its structure (`SkinStructure`:
@@ -71,13 +72,16 @@ class SkinModel(NamedTuple):
 class Segmentation(NamedTuple):
     """images (B, S, S) float32 grayscale crops (background 0); masks (B, S, S) bool; found (B,) bool;
     boxes (B, 4) int32 (top, left, bottom, right), bottom/right exclusive, in frame pixels (may reach
-    outside the frame, which is padded with background); skin (B, H, W) bool, the filtered skin mask."""
+    outside the frame, which is padded with background); skin (B, H, W) bool, the filtered skin mask;
+    context (B, S, S) float32, the same boxes of the grey frames unmasked (outside the frame 0; zero
+    where not found)."""
 
     images: Float[Array, "B S S"]
     masks: Bool[Array, "B S S"]
     found: Bool[Array, " B"]
     boxes: Int[Array, "B 4"]
     skin: Bool[Array, "B H W"]
+    context: Float[Array, "B S S"]
 
 
 def rgb_to_chroma(rgb: Real[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 2"]:
@@ -241,14 +245,14 @@ def _components(masks: np.ndarray):
 
 @partial(jax.jit, static_argnames=("size",))
 def _crops(gray, comp, top, left, side, size: int):
-    """Resample the square boxes (top, left, side) of gray (B, H, W) and comp masks to (B, size, size)."""
+    """Resample the square boxes (top, left, side) of gray (B, H, W) masked by comp, of comp and of gray
+    to (B, size, size) each (the mask kept where > 0.5)."""
     def one(g, m, t, l, s):
         scale = size / s
-        trans = jnp.stack([-t * scale, -l * scale])
-        sc = jnp.stack([scale, scale])
-        img = jax.image.scale_and_translate(g * m, (size, size), (0, 1), sc, trans, "linear", antialias=True)
-        msk = jax.image.scale_and_translate(m, (size, size), (0, 1), sc, trans, "linear", antialias=True)
-        return img, msk > 0.5
+        resample = lambda x: jax.image.scale_and_translate(x, (size, size), (0, 1), jnp.stack([scale, scale]),
+                                                           jnp.stack([-t * scale, -l * scale]), "linear",
+                                                           antialias=True)
+        return resample(g * m), resample(m) > 0.5, resample(g)
     return jax.vmap(one)(gray, comp, top, left, side)
 
 
@@ -293,12 +297,12 @@ def crop_components(gray: Float[ArrayLike, "B H W"], masks: Bool[ArrayLike, "B H
     top = top + h // 2 - side // 2
     left = left + w // 2 - side // 2
     comp = labels == np.where(found, chosen, stats.shape[0])[:, None, None]
-    imgs, crops = _crops(jnp.asarray(g), jnp.asarray(comp, jnp.float32), jnp.asarray(top, jnp.float32),
+    imgs, crops, context = _crops(jnp.asarray(g), jnp.asarray(comp, jnp.float32), jnp.asarray(top, jnp.float32),
                          jnp.asarray(left, jnp.float32), jnp.asarray(side, jnp.float32), S)
     f = jnp.asarray(found)
     boxes = np.where(found[:, None], np.stack([top, left, top + side, left + side], 1), -1).astype(np.int32)
     return Segmentation(jnp.where(f[:, None, None], imgs, 0.0), crops & f[:, None, None], f, jnp.asarray(boxes),
-                        jnp.asarray(m))
+                        jnp.asarray(m), jnp.where(f[:, None, None], context, 0.0))
 
 
 def segment(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points: Real[ArrayLike, "B 2"] | None = None,

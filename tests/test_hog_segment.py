@@ -7,6 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from hog_jax import (fit_gmm, fit_skin_model, gmm_log_prob, load_skin_model, median3, rgb_to_chroma,
                      save_skin_model, segment, skin_log_ratio)
@@ -145,7 +146,13 @@ def test_segment_frames_largest_seed_and_empty(tmp_path, toy_model):
         assert 0.4 < m.mean() < 0.7  # an 8 x 12 ellipse in a 24 x 24 square: pi/4 * 8/12 ~ 0.52
         img = np.asarray(seg.images[i])
         assert np.all(img[~m] < 0.45) and img[m].mean() > 0.5  # background black, hand bright
+        # context: the same box unmasked, the hand as in the crop, the background's grey around it
+        ctx, inner = np.asarray(seg.context[i]), ndimage.binary_erosion(m, iterations=3)
+        np.testing.assert_allclose(ctx[inner], img[inner], atol=0.08)
+        background_grey = np.dot([90, 100, 120], [0.299, 0.587, 0.114]) / 255.0
+        assert abs(np.median(ctx[~ndimage.binary_dilation(m, iterations=3)]) - background_grey) < 0.05
     assert not np.asarray(seg.masks[2]).any() and np.asarray(seg.boxes[2]).tolist() == [-1] * 4
+    assert not np.asarray(seg.context[2]).any()
     # a seed at the small blob picks it instead of the largest component
     seg2 = segment(model, frames[:1], seed_points=[[5, 5]], out_size=16)
     top, left, bottom, right = np.asarray(seg2.boxes[0])
