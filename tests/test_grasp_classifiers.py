@@ -26,6 +26,45 @@ def test_convnet_learns_shapes_it_was_not_shown():
     assert np.mean(convnet.classify_crops(clf, new_images, new_masks) == new_labels) >= 0.9
 
 
+def _hand_beside_a_bar(n: int, seed: int, size: int = 32):
+    """The same square 'hand' mask in every crop; the class is only in the unmasked context: a
+    horizontal bar, a vertical bar or nothing beside the hand."""
+    rng = np.random.default_rng(seed)
+    labels = np.arange(n) % 3
+    masks = np.zeros((n, size, size), bool)
+    masks[:, 12:20, 12:20] = True
+    context = np.zeros(masks.shape, np.float32)
+    for i, c in enumerate(labels):  # building the toy set, not a hot path
+        if c == 0:
+            context[i, rng.integers(2, 8), 4:28] = 0.8
+        elif c == 1:
+            context[i, 4:28, rng.integers(2, 8)] = 0.8
+    context = np.where(masks, 0.6, context)
+    return context * masks, masks, labels, context
+
+
+def test_context_convnet_reads_what_is_around_the_hand():
+    images, masks, labels, context = _hand_beside_a_bar(96, 5)
+    clf = convnet.fit_convnet(images, masks, labels, 3, width=4, epochs=25, batch=32, context=context)
+    assert clf.context
+    new_images, new_masks, new_labels, new_context = _hand_beside_a_bar(60, 6)
+    assert np.mean(convnet.classify_crops(clf, new_images, new_masks, context=new_context) == new_labels) >= 0.9
+    with pytest.raises(ValueError, match="context"):
+        convnet.classify_crops(clf, new_images, new_masks)  # trained on context: it needs it
+    with pytest.raises(ValueError, match="context"):
+        convnet.network_input(new_images, new_masks, new_context[:, :16])
+
+
+def test_augment_keeps_the_context_where_it_cuts_holes_in_the_mask():
+    import jax
+    _, masks, _ = _bars(8, 2)
+    x = convnet.network_input(masks.astype(np.float32), masks, context=np.ones(masks.shape, np.float32))
+    out = np.asarray(convnet.augment(jax.random.key(0), x, context=True))
+    assert np.all(np.isin(out[..., 1], (0.0, 1.0))) and out[..., 1].sum() < x[..., 1].sum()
+    zero = out[..., 0] == 0.0  # only the strips the shift brought in from outside the crop
+    assert np.all(~zero | zero.all(2, keepdims=True) | zero.all(1, keepdims=True))
+
+
 def test_augment_shifts_and_cuts_holes_but_adds_nothing():
     import jax
     _, masks, _ = _bars(8, 2)

@@ -48,6 +48,23 @@ def test_random_set_and_clutter_are_deterministic():
         random_set(0)
 
 
+def test_randomized_scenes_are_labelled_cached_and_checked(tmp_path, monkeypatch):
+    from experiments.data.grasp_database import randomized_scenes
+    monkeypatch.setenv("LFD_JAX_CACHE", str(tmp_path))
+    scenes = randomized_scenes(3, 1, seed=4, frame_size=48, completed_share=0.5)
+    assert scenes.frames.shape == (18, 48, 48, 3) and scenes.frames.dtype == np.uint8
+    assert scenes.labels.tolist() == [g for g in range(6) for _ in range(3)]
+    assert np.all((scenes.reach >= 0) & (scenes.reach <= 1)) and scenes.frames.std() > 10  # clutter, not blank
+    np.testing.assert_allclose(np.linalg.norm(scenes.quat, axis=1), 1.0, atol=1e-5)
+    again = randomized_scenes(3, 1, seed=4, frame_size=48, completed_share=0.5)  # from the cache
+    np.testing.assert_array_equal(again.frames, scenes.frames)
+    assert np.all(randomized_scenes(1, 1, seed=4, frame_size=48, completed_share=1.0).reach == 1.0)
+    with pytest.raises(ValueError, match="completed_share"):
+        randomized_scenes(3, 1, completed_share=1.5)
+    with pytest.raises(ValueError, match="n_hands_per_grasp"):
+        randomized_scenes(3, 4)
+
+
 def test_skin_pixels_separate_skin_from_background():
     skin, bg = skin_training_pixels(seed=0, n_images=3, frame_size=48, n_pixels=500)
     assert skin.shape == bg.shape == (500, 3)
@@ -91,9 +108,11 @@ def test_experiment_smoke(tmp_path):
             "--crop-size", "32", "--n-large", "12", "--n-held-out", "12", "--frame-size", "96", "--k", "3",
             "--k-values", "1,3", "--db-grids", "6x2", "--bins-sweep", "4", "--levels-sweep", "3",
             "--n-skin-images", "3", "--timing-repeats", "1",
-            # the paths beyond the paper: randomised views, a network class, LSH tuned on validation images
-            "--n-random-views", "4", "--random-pool", "6", "--n-random-hands", "2", "--classifier", "cnn",
-            "--cnn-epochs", "1", "--cnn-width", "2", "--lsh-probes", "1", "--lsh-tuning", "validation", "--n-validation", "12", "--ladder", "true"]
+            # the paths beyond the paper: randomised views, a network class from rendered scenes, LSH tuned on
+            # validation images
+            "--n-random-views", "4", "--random-pool", "6", "--n-random-hands", "2", "--classifier", "scene_cnn",
+            "--n-scenes", "4", "--n-scene-hands", "2", "--cnn-epochs", "1", "--cnn-width", "2", "--lsh-probes", "1",
+            "--lsh-tuning", "validation", "--n-validation", "12", "--ladder", "true"]
     m = gr.main(argv)
     for key in ("accuracy_X", "accuracy_Xp", "accuracy_Xpp", "accuracy_large", "lsh_recall_at_k", "query_ms",
                 "orientation_geodesic_error_deg_X", "orientation_geodesic_error_deg_correct", "classifier_ms"):

@@ -1,4 +1,5 @@
-"""A domain-randomised view database for grasp recognition (issue 20), and the validation hand.
+"""A domain-randomised view database and training scenes for grasp recognition (issue 20), and the
+validation hand.
 
 GRASP's database (`sim.grasp_views.view_database`) shows one hand in one exact posture per grasp. Test
 images show another hand, on its way to the grasp, with its joints a little off. `randomized_views`
@@ -6,8 +7,10 @@ renders, for each grasp, views of randomly drawn hands (`random_hand`: anthropom
 each view with its own random posture along the reach, lighting, camera distance and aim, blur and
 noise, from a random viewpoint on the upper half-sphere; every view is labelled with its grasp and
 its camera orientation (`sim.grasp_views.view_euler`) and cropped by the renderer's hand mask like the
-database. The ranges below were set from general anthropometry and imaging, before any test image
-was looked at; the choices among configurations are made on a validation set drawn with
+database. `randomized_scenes` renders whole frames of such hands holding or reaching for objects of
+random colours in front of clutter, for a recogniser that sees the held object (it segments them as it
+segments its queries). The ranges below were set from general anthropometry and imaging, before any
+test image was looked at; the choices among configurations are made on a validation set drawn with
 `VALIDATION_SHAPE` and its own seed, never with the test hand (`sim.human_hand.TEST_SHAPE`).
 
 Shapes: V views, S crop pixels.
@@ -16,12 +19,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+from typing import NamedTuple
 
 import cv2
 import numpy as np
 
 from hog_jax import euler_to_quat
-from lfd_common import cache_dir, check_int, load_arrays, save_arrays
+from experiments.data.grasp_tests import clutter_background
+from lfd_common import cache_dir, check_int, check_real, load_arrays, save_arrays
 from sim.grasp_objects import GRASP_CLASSES
 from sim.grasp_views import GraspRenderer, ViewDatabase, crop_hand, hand_center, sphere_camera, view_euler
 from sim.human_grasps import GRASP_POSTURES, posture
@@ -56,9 +61,10 @@ def random_hand(rng: np.random.Generator) -> HandShape:
                      skin_rgba=(*tone, 1.0))
 
 
-def _random_view(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, shape: HandShape, out_size: int):
-    """One randomised view: (crop (S, S), mask (S, S), azimuth_deg, elevation_deg)."""
-    reach = rng.uniform()  # 0: the relaxed hand, 1: the grasp
+def _random_pose(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, shape: HandShape, reach: float):
+    """Set a random posture `reach` of the way along the reach (0: the relaxed hand, 1: the grasp) with
+    joint noise, the object that far from the hand, random lighting; -> (camera position, rotation,
+    azimuth_deg, elevation_deg) of a random viewpoint on the upper half-sphere."""
     joints = posture(grasp, reach) + rng.uniform(-_JOINT_NOISE_DEG, _JOINT_NOISE_DEG, 20)
     renderer.set_posture(clip_posture(joints))
     direction = -hand_center(grasp, shape)
@@ -67,11 +73,49 @@ def _random_view(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, 
                           [rng.uniform(-1, 1), rng.uniform(-1, 1), -rng.uniform(0.2, 1.0)])
     azimuth, elevation = rng.uniform(0.0, 360.0), rng.uniform(0.0, 90.0)
     target = hand_center(grasp, shape) + rng.normal(0.0, 0.02, 3)
-    rgb, hand, _ = renderer.render_with_mask(*sphere_camera(azimuth, elevation, rng.uniform(0.5, 0.8), target=target))
+    return (*sphere_camera(azimuth, elevation, rng.uniform(0.5, 0.8), target=target), azimuth, elevation)
+
+
+def _random_view(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, shape: HandShape, out_size: int):
+    """One randomised view: (crop (S, S), mask (S, S), azimuth_deg, elevation_deg)."""
+    camera, rotation, azimuth, elevation = _random_pose(renderer, rng, grasp, shape, rng.uniform())
+    rgb, hand, _ = renderer.render_with_mask(camera, rotation)
     img = cv2.GaussianBlur(rgb.astype(np.float32), (0, 0), rng.uniform(0.1, 1.0))
     img += rng.normal(0.0, rng.uniform(0.0, 6.0), img.shape)
     crop, mask = crop_hand(np.clip(img, 0, 255), hand, out_size)
     return crop, mask, azimuth, elevation
+
+
+def _cached(name: str, kind: str, record, settings: dict, build):
+    """`build()`, a NamedTuple of type `record`, stored as `kind` under cache_dir("grasp_views") by `name`
+    and a hash of `settings` (with the grasp postures and the database hand), and reused while they match."""
+    settings = {**settings, "postures": repr(GRASP_POSTURES), "default": repr(DEFAULT_SHAPE), "version": _VERSION}
+    key = hashlib.sha1(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
+    path = cache_dir("grasp_views") / f"{name}_{key}.npz"
+    if path.exists():
+        arrays, _, _ = load_arrays(path, kind)
+        return record(**{f: arrays[f] for f in record._fields})
+    out = build()
+    save_arrays(path, kind, out._asdict(), config=settings)
+    return out
+
+
+def _hand_renders(seed: int, stream: int, n_views: int, n_hands: int, size: int, progress, desc: str):
+    """For each grasp in turn, `n_views` times: (row, grasp, rng, renderer, hand shape), the views of a
+    grasp spread over `n_hands` random hands (one MuJoCo model each), the rows consecutive; the grasp's
+    random stream is `default_rng([seed, stream, grasp])`. `progress(iterable, total, desc)` wraps the
+    hands of each grasp."""
+    row = 0
+    for g in GRASP_CLASSES:
+        rng = np.random.default_rng([seed, stream, g])
+        per_hand = np.diff(np.linspace(0, n_views, n_hands + 1).astype(int))
+        loop = range(n_hands) if progress is None else progress(range(n_hands), n_hands, f"{desc}, grasp {g}")
+        for h in loop:
+            shape = random_hand(rng)
+            with GraspRenderer(g, size, size, shape) as renderer:
+                for _ in range(per_hand[h]):
+                    yield row, g, rng, renderer, shape
+                    row += 1
 
 
 def randomized_views(n_views_per_grasp: int, n_hands_per_grasp: int, seed: int = 0, render_size: int = 128,
@@ -82,32 +126,68 @@ def randomized_views(n_views_per_grasp: int, n_hands_per_grasp: int, seed: int =
     per-grasp loops."""
     n_views = check_int(n_views_per_grasp, "n_views_per_grasp", min_value=1, max_value=1_000_000)
     n_hands = check_int(n_hands_per_grasp, "n_hands_per_grasp", min_value=1, max_value=n_views)
-    settings = dict(n_views=n_views, n_hands=n_hands, seed=seed, render_size=render_size, out_size=out_size,
-                    postures=repr(GRASP_POSTURES), default=repr(DEFAULT_SHAPE), version=_VERSION)
-    key = hashlib.sha1(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-    path = cache_dir("grasp_views") / f"randomized_{n_views}x{n_hands}_{out_size}px_{key}.npz"
-    if path.exists():
-        arrays, _, _ = load_arrays(path, "sim.ViewDatabase")
-        return ViewDatabase(**{f: arrays[f] for f in ViewDatabase._fields})
-    images = np.zeros((len(GRASP_CLASSES) * n_views, out_size, out_size), np.float32)
-    masks = np.zeros(images.shape, bool)
-    az, el = np.zeros(len(images)), np.zeros(len(images))
-    for gi, g in enumerate(GRASP_CLASSES):
-        rng = np.random.default_rng([seed, 20, g])
-        per_hand = np.diff(np.linspace(0, n_views, n_hands + 1).astype(int))
-        loop = range(n_hands) if progress is None else progress(range(n_hands), n_hands, f"randomised views, grasp {g}")
-        row = gi * n_views
-        for h in loop:  # one MuJoCo model per hand
-            shape = random_hand(rng)
-            with GraspRenderer(g, render_size, render_size, shape) as renderer:
-                for _ in range(per_hand[h]):
-                    images[row], masks[row], az[row], el[row] = _random_view(renderer, rng, g, shape, out_size)
-                    row += 1
-    euler = view_euler(az, el).astype(np.float32)
-    db = ViewDatabase(images=images, masks=masks, labels=np.repeat(np.arange(len(GRASP_CLASSES), dtype=np.int32), n_views),
-                      euler=euler, quat=np.asarray(euler_to_quat(euler)), azimuth_deg=az, elevation_deg=el)
-    save_arrays(path, "sim.ViewDatabase", db._asdict(), config=settings)
-    return db
+    settings = dict(n_views=n_views, n_hands=n_hands, seed=seed, render_size=render_size, out_size=out_size)
+
+    def build():
+        images = np.zeros((len(GRASP_CLASSES) * n_views, out_size, out_size), np.float32)
+        masks = np.zeros(images.shape, bool)
+        az, el = np.zeros(len(images)), np.zeros(len(images))
+        for row, g, rng, renderer, shape in _hand_renders(seed, 20, n_views, n_hands, render_size, progress,
+                                                          "randomised views"):
+            images[row], masks[row], az[row], el[row] = _random_view(renderer, rng, g, shape, out_size)
+        euler = view_euler(az, el).astype(np.float32)
+        return ViewDatabase(images=images, masks=masks, euler=euler, quat=np.asarray(euler_to_quat(euler)),
+                            labels=np.repeat(np.arange(len(GRASP_CLASSES), dtype=np.int32), n_views),
+                            azimuth_deg=az, elevation_deg=el)
+
+    return _cached(f"randomized_{n_views}x{n_hands}_{out_size}px", "sim.ViewDatabase", ViewDatabase, settings,
+                   build)
+
+
+class SceneSet(NamedTuple):
+    """frames (N, H, W, 3) uint8 whole camera frames; labels (N,) int32 indices into GRASP_CLASSES;
+    euler (N, 3) radians (`sim.grasp_views.view_euler`), quat (N, 4); reach (N,) how far along the reach
+    (1: the grasp completed)."""
+
+    frames: np.ndarray
+    labels: np.ndarray
+    euler: np.ndarray
+    quat: np.ndarray
+    reach: np.ndarray
+
+
+def randomized_scenes(n_per_grasp: int, n_hands_per_grasp: int, seed: int = 0, frame_size: int = 160,
+                      completed_share: float = 0.5, progress=None) -> SceneSet:
+    """Whole frames of randomly drawn hands (`random_hand`) holding or reaching for their grasp's object,
+    for a recogniser that sees what is around the hand: each frame as `randomized_views` (posture along
+    the reach with joint noise, lighting, camera), the grasp completed with probability `completed_share`
+    (else a reach fraction uniform in [0, 1]), the object in a random colour (each channel uniform in
+    [0, 1]), in front of random clutter (`grasp_tests.clutter_background`, this function's own seeds),
+    blurred and noisy. Cached under `cache_dir("grasp_views")` keyed by every argument."""
+    n_views = check_int(n_per_grasp, "n_per_grasp", min_value=1, max_value=1_000_000)
+    n_hands = check_int(n_hands_per_grasp, "n_hands_per_grasp", min_value=1, max_value=n_views)
+    size = check_int(frame_size, "frame_size", min_value=32, max_value=1024)
+    share = check_real(completed_share, "completed_share", min_value=0.0, max_value=1.0)
+    settings = dict(n_views=n_views, n_hands=n_hands, seed=seed, frame_size=size, completed_share=share)
+
+    def build():
+        frames = np.zeros((len(GRASP_CLASSES) * n_views, size, size, 3), np.uint8)
+        az, el, reach = (np.zeros(len(frames)) for _ in range(3))
+        for row, g, rng, renderer, shape in _hand_renders(seed, 22, n_views, n_hands, size, progress, "scenes"):
+            reach[row] = 1.0 if rng.uniform() < share else rng.uniform()
+            camera, rotation, az[row], el[row] = _random_pose(renderer, rng, g, shape, reach[row])
+            renderer.set_object_rgba([*rng.uniform(0.0, 1.0, 3), 1.0])
+            rgb, hand, obj = renderer.render_with_mask(camera, rotation)
+            background = clutter_background(rng, size).astype(np.float32)
+            img = np.where((hand | obj)[..., None], rgb.astype(np.float32), background)
+            img = cv2.GaussianBlur(img, (0, 0), rng.uniform(0.1, 1.2))
+            img += rng.normal(0.0, rng.uniform(0.0, 8.0), img.shape)
+            frames[row] = np.clip(np.round(img), 0, 255).astype(np.uint8)
+        euler = view_euler(az, el).astype(np.float32)
+        return SceneSet(frames, np.repeat(np.arange(len(GRASP_CLASSES), dtype=np.int32), n_views), euler,
+                        np.asarray(euler_to_quat(euler)), reach)
+
+    return _cached(f"scenes_{n_views}x{n_hands}_{size}px", "experiments.SceneSet", SceneSet, settings, build)
 
 
 def concatenate_databases(*dbs: ViewDatabase) -> ViewDatabase:
@@ -117,4 +197,5 @@ def concatenate_databases(*dbs: ViewDatabase) -> ViewDatabase:
     return ViewDatabase(*(np.concatenate([getattr(d, f) for d in dbs]) for f in ViewDatabase._fields))
 
 
-__all__ = ["VALIDATION_SHAPE", "concatenate_databases", "random_hand", "randomized_views"]
+__all__ = ["VALIDATION_SHAPE", "SceneSet", "concatenate_databases", "random_hand", "randomized_scenes",
+           "randomized_views"]

@@ -61,6 +61,10 @@ VARIANTS: dict[str, dict] = {
     "DR 10x + convnet on the crops": dict(n_random_views=8100, classifier="cnn"),
     "DR 10x + LDA + skin model adapted (background) + convnet": dict(n_random_views=8100, metric="lda",
                                                                      skin_adaptation="background", classifier="cnn"),
+    "skin model adapted (background) + scene convnet on the unmasked boxes": dict(skin_adaptation="background",
+                                                                                 classifier="scene_cnn"),
+    "DR 10x + LDA + skin model adapted (background) + scene convnet": dict(
+        n_random_views=8100, metric="lda", skin_adaptation="background", classifier="scene_cnn"),
 }
 
 
@@ -74,13 +78,14 @@ def split_sets(cfg: Config, split: str) -> dict:
             "large": random_set(cfg.n_large, cfg.seed, cfg.frame_size, progress=bar("render large"))}
 
 
-def evaluate(cfg: Config, sets: dict, crops: dict) -> dict:
+def evaluate(cfg: Config, sets: dict, crops: dict, skin) -> dict:
     """Exact-kNN accuracy (large with its interval, X / X' / X'') and geodesic error on the correct."""
-    rec = build_recogniser(cfg, jax.random.key(cfg.seed), database(cfg), None)
+    rec = build_recogniser(cfg, jax.random.key(cfg.seed), database(cfg), None, skin)
     out = {"n_database_views": len(rec.db.labels)}
     for name, t in sets.items():
-        found = crops[name][2]
-        r = recognise(rec, features(rec, *crops[name]), found, exact=True, labels=net_labels(rec, *crops[name]))
+        c = crops[name]
+        found = c.found
+        r = recognise(rec, features(rec, c.images, c.masks, found), found, exact=True, labels=net_labels(rec, c))
         out[f"accuracy_{name}"] = accuracy(r.labels, t.labels)
         if name == "large":
             out["ci95"] = wilson_interval(int(np.sum(r.labels == t.labels)), len(t.labels))
@@ -116,7 +121,7 @@ def main(argv=None) -> dict:
         if cfg.skin_adaptation not in crops:
             crops[cfg.skin_adaptation] = {n: segment_frames(skin, t.frames, base.crop_size,
                                                             adaptation=cfg.skin_adaptation) for n, t in sets.items()}
-        r = evaluate(cfg, sets, crops[cfg.skin_adaptation])
+        r = evaluate(cfg, sets, crops[cfg.skin_adaptation], skin)
         r["time_s"] = time.perf_counter() - t0
         results[name] = r
         rows.append((name, r["n_database_views"], f"{100 * r['accuracy_large']:.1f} [{100 * r['ci95'][0]:.1f}, "

@@ -42,10 +42,13 @@ class Config:
     lsh_tuning: str = "database"     # database: held-out database-like views; validation: query-like images
     lsh_probes: int = 0              # multi-probe: buckets read per table besides the query's
     classifier: str = "knn"          # knn (eq. 3) | mlp (a perceptron on HOG) | cnn (a convnet on the crops,
-    classifier_hidden: int = 512     # `convnet`); orientation: eq. 4 within the class
+    classifier_hidden: int = 512     # `convnet`) | scene_cnn (a convnet on the unmasked boxes around the hand,
+                                     # trained on rendered scenes); orientation: eq. 4 within the class
     classifier_epochs: int = 30
     cnn_width: int = 16              # the convnet's first layer's channels
     cnn_epochs: int = 10
+    n_scenes: int = 5000             # scene_cnn: rendered scenes per grasp (`randomized_scenes`) it trains on,
+    n_scene_hands: int = 100         # spread over this many random hands per grasp
     skin_adaptation: str = "none"    # none | background | both: the skin model adapted to each frame
     db_pixels: int = 0               # database crops degraded to a hand this many pixels across (0: as rendered)
     n_validation: int = 300          # validation images (their own seed and hand) for tuning
@@ -57,9 +60,11 @@ class Config:
             raise ValueError("n_azimuth, n_elevation, k, n_large, n_held_out and timing_repeats must be >= 1")
         if not 0 <= self.db_pixels <= self.crop_size:
             raise ValueError(f"db_pixels: expected 0 (none) or at most crop_size {self.crop_size}, got {self.db_pixels}")
-        if min(self.cnn_width, self.cnn_epochs) < 1:
-            raise ValueError("cnn_width and cnn_epochs must be >= 1")
-        if self.classifier == "cnn" and self.crop_size % 16:
+        if min(self.cnn_width, self.cnn_epochs, self.n_scenes, self.n_scene_hands) < 1:
+            raise ValueError("cnn_width, cnn_epochs, n_scenes and n_scene_hands must be >= 1")
+        if self.n_scene_hands > self.n_scenes:
+            raise ValueError(f"n_scene_hands: at most n_scenes {self.n_scenes}, got {self.n_scene_hands}")
+        if self.classifier in ("cnn", "scene_cnn") and self.crop_size % 16:
             raise ValueError(f"crop_size: the convnet needs a multiple of 16, got {self.crop_size}")
         if min(self.n_random_views, self.lsh_probes, self.metric_components) < 0 or self.n_random_hands < 1:
             raise ValueError("n_random_views, lsh_probes, metric_components must be >= 0, n_random_hands >= 1")
@@ -70,7 +75,7 @@ class Config:
                                      ("metric", self.metric, ("none", "lda")),
                                      ("lsh_tuning", self.lsh_tuning, ("database", "validation")),
                                      ("skin_adaptation", self.skin_adaptation, ("none", "background", "both")),
-                                     ("classifier", self.classifier, ("knn", "mlp", "cnn"))):
+                                     ("classifier", self.classifier, ("knn", "mlp", "cnn", "scene_cnn"))):
             if value not in choices:
                 raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
         if not 0.0 <= self.metric_shrinkage <= 1.0:

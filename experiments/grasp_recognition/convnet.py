@@ -1,9 +1,16 @@
 """A small convolutional network on the hand crops (issue 20, beyond the paper): the grasp class from the
-masked pixels instead of from HOG, trained on the database only (grid and domain-randomised views) with
-augmentation for what skin segmentation does to a query crop (shifts, brightness, holes in the mask).
-Orientation stays eq. 4 (`recogniser.recognise`), from database views of the predicted class.
+pixels instead of from HOG, with augmentation for what skin segmentation does to a query crop (shifts,
+brightness, holes in the mask). Orientation stays eq. 4 (`recogniser.recognise`), from database views
+of the predicted class. Two inputs:
 
-Input: two channels per crop, the grey image times its mask and the mask. Layers: 3x3 convolutions,
+* the hand only (`context=None`): the grey crop times its mask, and the mask; trained on the database
+  (grid and domain-randomised views, whose background and object are black);
+* the hand in its context: the unmasked box around the hand (`hog_jax.Segmentation.context`: the held
+  object, the background), and the mask; trained on rendered scenes (`grasp_database.randomized_scenes`)
+  segmented like the queries. Holes are then cut from the mask channel only: skin segmentation
+  misses hand pixels, the camera still sees them.
+
+Layers: 3x3 convolutions,
 ReLU, stride 2 four times (S -> S / 16) with one stride-1 layer after the first, `width`, 2, 4, 8 x
 `width` channels, dropout 0.3 on the flattened map, a 256-unit dense layer, 6 logits.
 
@@ -30,9 +37,11 @@ _VERSION = 1
 
 
 class ConvClassifier(NamedTuple):
-    """params: flat name -> array dict of the network's weights (`_init`)."""
+    """params: flat name -> array dict of the network's weights (`_init`); context: whether its first
+    channel is the unmasked box around the hand (else the hand's pixels only)."""
 
     params: dict
+    context: bool = False
 
 
 def _conv_init(key, cin: int, cout: int) -> tuple[jax.Array, jax.Array]:
@@ -70,10 +79,11 @@ def logits(params: dict, x: jax.Array, dropout_key=None) -> jax.Array:
     return jax.nn.relu(h @ params["d1_w"] + params["d1_b"]) @ params["d2_w"] + params["d2_b"]
 
 
-def augment(key, x: jax.Array) -> jax.Array:
+def augment(key, x: jax.Array, context: bool = False) -> jax.Array:
     """Inputs x (N, S, S, 2) as a query crop might look: shifted by up to S / 10 pixels, the grey
     channel scaled by U(0.6, 1.3), and up to three rectangular holes with sides of S / 16 to S / 4
-    (each with probability 0.5) cut from both channels, as skin segmentation leaves holes in a hand."""
+    (each with probability 0.5) cut from the mask, as skin segmentation leaves holes in a hand, and from
+    the grey channel too unless it is the unmasked `context`."""
     n, size = x.shape[0], x.shape[1]
     shift = int(round(_SHIFT * size))
     k_shift, k_gain, k_centre, k_side, k_use = jax.random.split(key, 5)
@@ -87,12 +97,15 @@ def augment(key, x: jax.Array) -> jax.Array:
     used = jax.random.bernoulli(k_use, 0.5, (n, 3))[..., None, None]
     hole = ((jnp.abs(rows - centre[:, :, 0]) < half[:, :, 0]) & (jnp.abs(cols - centre[:, :, 1]) < half[:, :, 1])
             & used).any(1)
-    return jnp.concatenate([x[..., :1] * gain, x[..., 1:]], -1) * (~hole)[..., None]
+    grey = x[..., :1] * gain
+    keep = (~hole)[..., None]
+    return jnp.concatenate([grey if context else grey * keep, x[..., 1:] * keep], -1)
 
 
-def network_input(images, masks) -> np.ndarray:
-    """(N, S, S, 2) float32: the crops (N, S, S) times their masks, and the masks. ValueError naming the
-    argument for a wrong shape, non-finite pixels or S not a multiple of 16."""
+def network_input(images, masks, context=None) -> np.ndarray:
+    """(N, S, S, 2) float32: the crops (N, S, S) times their masks, or the unmasked `context` (N, S, S)
+    when given; and the masks. ValueError naming the argument for a wrong shape, non-finite pixels or S
+    not a multiple of 16."""
     images = as_array(images, "images", ndim=3, dtype=np.float32)
     if images.shape[1] != images.shape[2] or images.shape[1] % 16 or images.shape[1] == 0:
         raise ValueError(f"images: expected square crops (N, S, S) with S a multiple of 16, got {images.shape}")
@@ -100,16 +113,18 @@ def network_input(images, masks) -> np.ndarray:
     if masks.shape != images.shape:
         raise ValueError(f"masks: expected the images' shape {images.shape}, got {masks.shape}")
     m = masks.astype(np.float32)
-    return np.stack([images * m, m], -1)
+    if context is None:
+        return np.stack([images * m, m], -1)
+    return np.stack([as_array(context, "context", shape=images.shape, dtype=np.float32), m], -1)
 
 
-@partial(jax.jit, static_argnames=("optimizer",), donate_argnums=(1, 2))
-def _step(optimizer, params, opt_state, key, data, labels, idx):
+@partial(jax.jit, static_argnames=("optimizer", "context"), donate_argnums=(1, 2))
+def _step(optimizer, params, opt_state, key, data, labels, idx, context: bool):
     """One AdamW step on the augmented minibatch `idx` (batch,) of the device-resident data. One call
     per step, not a `lax.scan` over the epoch: XLA:CPU ran these convolutions 23x slower inside the
     scan's loop (README "Measured design choices")."""
     k_aug, k_drop = jax.random.split(key)
-    xb = augment(k_aug, data[idx])
+    xb = augment(k_aug, data[idx], context)
     loss, g = jax.value_and_grad(lambda p: optax.softmax_cross_entropy_with_integer_labels(
         logits(p, xb, k_drop), labels[idx]).mean())(params)
     updates, opt_state = optimizer.update(g, opt_state, params)
@@ -118,11 +133,12 @@ def _step(optimizer, params, opt_state, key, data, labels, idx):
 
 def fit_convnet(images, masks, labels, n_classes: int, seed: int = 0, width: int = 16, epochs: int = 10,
                 batch: int = 128, learning_rate: float = 2e-3, weight_decay: float = 5e-4,
-                progress=None) -> ConvClassifier:
+                progress=None, context=None) -> ConvClassifier:
     """Train the network on crops (N, S, S) with masks and labels (N,) in [0, n_classes): AdamW with a
     cosine-decayed rate on the cross-entropy of augmented (`augment`) shuffled minibatches, `epochs`
-    passes. `progress(iterable, total)` wraps the epochs."""
-    x = network_input(images, masks)
+    passes. With `context` (N, S, S), the unmasked boxes, the network sees those instead of the masked
+    crops (module docstring). `progress(iterable, total)` wraps the epochs."""
+    x = network_input(images, masks, context)
     labels = as_array(labels, "labels", shape=(len(x),), dtype=np.int32)
     n_classes = check_int(n_classes, "n_classes", min_value=2)
     if labels.min(initial=0) < 0 or labels.max(initial=0) >= n_classes:
@@ -140,9 +156,9 @@ def fit_convnet(images, masks, labels, n_classes: int, seed: int = 0, width: int
         order = jnp.asarray(rng.permutation(len(x))[: n_batches * batch].reshape(n_batches, batch))
         for b in range(n_batches):  # optimisation steps (see `_step`)
             params, opt_state, loss = _step(optimizer, params, opt_state, jax.random.fold_in(key, epoch * n_batches + b),
-                                            data, y, order[b])
+                                            data, y, order[b], context is not None)
         loss.block_until_ready()  # the progress bar shows epochs done, not epochs dispatched
-    return ConvClassifier(jax.device_get(params))
+    return ConvClassifier(jax.device_get(params), context is not None)
 
 
 @jax.jit
@@ -150,21 +166,26 @@ def _predict(params, x):
     return jnp.argmax(logits(params, x), axis=1).astype(jnp.int32)
 
 
-def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256) -> np.ndarray:
-    """(N,) class indices of crops (N, S, S) with masks (N >= 1), `chunk` crops at a time (bounded memory)."""
-    x = network_input(images, masks)
+def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256, context=None) -> np.ndarray:
+    """(N,) class indices of crops (N, S, S) with masks (N >= 1), `chunk` crops at a time (bounded memory);
+    a network trained on context needs the unmasked boxes `context` (N, S, S) (ValueError without)."""
+    if clf.context and context is None:
+        raise ValueError("context: this network was trained on the unmasked boxes around the hand; pass them")
+    x = network_input(images, masks, context if clf.context else None)
     return np.concatenate([np.asarray(_predict(clf.params, jnp.asarray(x[i:i + chunk])))
                            for i in range(0, len(x), chunk)])
 
 
-def cached_convnet(settings: dict, train) -> ConvClassifier:
+def cached_convnet(settings: dict, train, context: bool = False) -> ConvClassifier:
     """The network `train()` returns, stored under cache_dir('grasp_cnn') by a hash of `settings` (what
-    determines the training data and the training: JSON-serialisable) and reused while they match."""
-    key = hashlib.sha1(json.dumps({**settings, "version": _VERSION}, sort_keys=True).encode()).hexdigest()[:16]
+    determines the training data and the training: JSON-serialisable) and reused while they match;
+    `context`: whether it is trained on the unmasked boxes (part of the key)."""
+    tagged = {**settings, "version": _VERSION, **({"context": True} if context else {})}
+    key = hashlib.sha1(json.dumps(tagged, sort_keys=True).encode()).hexdigest()[:16]
     path = cache_dir("grasp_cnn") / f"convnet_{key}.npz"
     if path.exists():
         arrays, _, _ = load_arrays(path, "experiments.ConvClassifier")
-        return ConvClassifier(arrays)
+        return ConvClassifier(arrays, context)
     clf = train()
     save_arrays(path, "experiments.ConvClassifier", clf.params, config=settings)
     return clf

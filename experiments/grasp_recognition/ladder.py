@@ -22,7 +22,7 @@ import numpy as np
 import hog_jax
 from experiments.data.grasp_tests import ALL_NUISANCES, GraspTestSet, Nuisances, random_set, sequence_set
 from experiments.grasp_recognition.config import Config
-from experiments.grasp_recognition.pieces import bar
+from experiments.grasp_recognition.pieces import Crops, bar, crops_of
 from sim.human_hand import DEFAULT_SHAPE, TEST_SHAPE, HandShape
 
 
@@ -53,10 +53,10 @@ def rung_sets(cfg: Config, rung: Rung) -> dict[str, GraspTestSet]:
                                 progress=bar(f"render large, {rung.name}"))}
 
 
-def mask_crops(test: GraspTestSet, crop_size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(images (N, S, S), masks (N, S, S), found (N,)): the renderer's hand mask cropped exactly as the
-    skin segmentation's (`hog_jax.crop_components`, seeded at the frame centre)."""
+def mask_crops(test: GraspTestSet, crop_size: int) -> Crops:
+    """The renderer's hand mask cropped exactly as the skin segmentation's (`hog_jax.crop_components`,
+    seeded at the frame centre)."""
     n, h, w, _ = test.frames.shape
     gray = (test.frames.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)) / 255.0
     seg = hog_jax.crop_components(gray, test.hand_masks, np.tile([h / 2.0, w / 2.0], (n, 1)), out_size=crop_size)
-    return np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)
+    return crops_of(seg)

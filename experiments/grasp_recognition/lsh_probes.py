@@ -34,8 +34,8 @@ def main() -> None:
     skin = hog_jax.fit_skin_model(jax.random.fold_in(jax.random.key(cfg.seed), 1),
                                   *skin_training_pixels(cfg.seed, cfg.n_skin_images))
     val = validation_crops(cfg, skin)
-    rec = build_recogniser(cfg, jax.random.key(cfg.seed), database(cfg), None)
-    q = features(rec, *val)[val[2]]
+    rec = build_recogniser(cfg, jax.random.key(cfg.seed), database(cfg), None, skin)
+    q = features(rec, val.images, val.masks, val.found)[val.found]
     half = len(q) // 2
     held_out = q[half:]
     exact = hog_jax.exact_search(rec.model.data, held_out, cfg.k)

@@ -2,6 +2,8 @@
 kNN prediction, orientation errors, confusion, the sensitivity sweeps."""
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -53,9 +55,29 @@ def held_out_views(cfg: Config):
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
-def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64, adaptation: str = "none"):
+class Crops(NamedTuple):
+    """The hand crops of N frames: images (N, S, S) grey times the hand mask; masks (N, S, S) bool; found
+    (N,) bool (False: no hand, zero crop); context (N, S, S) the same boxes unmasked
+    (`hog_jax.Segmentation.context`)."""
+
+    images: np.ndarray
+    masks: np.ndarray
+    found: np.ndarray
+    context: np.ndarray
+
+    def take(self, rows) -> "Crops":
+        """The crops of `rows` (an index or boolean array)."""
+        return Crops(*(a[rows] for a in self))
+
+
+def crops_of(seg) -> Crops:
+    """A `hog_jax.Segmentation`'s crops as NumPy arrays."""
+    return Crops(*(np.asarray(a) for a in (seg.images, seg.masks, seg.found, seg.context)))
+
+
+def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64, adaptation: str = "none") -> Crops:
     """Skin segmentation of test frames (N, H, W, 3), seeded at the frame centre (where the camera aims):
-    (images (N, S, S), masks (N, S, S), found (N,)). `chunk` frames per call bounds the memory.
+    their `Crops`. `chunk` frames per call bounds the memory.
     adaptation: "none" (the global skin model), "background" or "both" (`hog_jax.segment_adapted`: the
     background mixture, or both mixtures, adapted to each frame; relevance 64 pixels, 5 iterations,
     chosen on validation images by the skin mask's IoU)."""
@@ -69,8 +91,8 @@ def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64, ad
         else:
             seg = hog_jax.segment_adapted(skin, part, seed_points=seeds, out_size=crop_size, n_iter=5, relevance=64.0,
                                           adapt_skin=adaptation == "both")
-        parts.append((np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)))
-    return tuple(np.concatenate([p[j] for p in parts]) for j in range(3))
+        parts.append(crops_of(seg))
+    return Crops(*(np.concatenate(a) for a in zip(*parts)))
 
 
 def hog_features(images, masks, found, config: hog_jax.HOGConfig) -> np.ndarray:
@@ -169,8 +191,8 @@ def sweeps(cfg: Config, db, tests: dict, seg: dict, k: int) -> dict:
                             db_.labels, db_.euler, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
         res = {}
         for name, t in tests.items():
-            x = hog_features(*seg[name], config)
-            ok = seg[name][2]
+            ok = seg[name].found
+            x = hog_features(seg[name].images, seg[name].masks, ok, config)
             for kk in ks:
                 res[(name, kk)] = accuracy(knn_predict(model, x, ok, min(kk, len(db_.labels)))[0], t.labels)
         return res

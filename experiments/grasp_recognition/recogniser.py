@@ -13,7 +13,8 @@ from experiments.config import progress
 from experiments.grasp_recognition.classifier import classify, fit_classifier
 from experiments.grasp_recognition.config import Config
 from experiments.grasp_recognition.convnet import ConvClassifier, cached_convnet, classify_crops, fit_convnet
-from experiments.grasp_recognition.pieces import hog_features, knn_predict
+from experiments.data.grasp_database import randomized_scenes
+from experiments.grasp_recognition.pieces import Crops, hog_features, knn_predict, segment_frames
 from sim.grasp_objects import GRASP_CLASSES
 
 
@@ -54,11 +55,12 @@ def transformed(metric, x: np.ndarray) -> np.ndarray:
     return x if metric is None else np.asarray(hog_jax.apply_metric(metric, x))
 
 
-def build_recogniser(cfg: Config, key, db, tune_images: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Recogniser:
+def build_recogniser(cfg: Config, key, db, tune_images: Crops | None, skin=None) -> Recogniser:
     """HOG of the database `db` (a `sim.ViewDatabase`-like record), the metric (cfg.metric, fitted on the
-    database only), the kNN model and an LSH index tuned for recall@k on `tune_images` (images, masks,
-    found) (cfg.lsh_tuning says whether they are database-like held-out views or query-like images);
-    None: no index (exact search only; `lsh` empty, `tune` None)."""
+    database only), the kNN model and an LSH index tuned for recall@k on `tune_images` (cfg.lsh_tuning
+    says whether they are database-like held-out views or query-like images); None: no index (exact
+    search only; `lsh` empty, `tune` None). `skin`: the skin model that segments the queries, which
+    the scene convnet (cfg.classifier "scene_cnn") segments its training scenes with."""
     hcfg = hog_config(cfg)
     x = hog_features(db.images, db.masks, np.ones(len(db.labels), bool), hcfg)
     metric = (hog_jax.fit_metric(x, db.labels, shrinkage=cfg.metric_shrinkage, n_components=cfg.metric_components or None)
@@ -69,12 +71,16 @@ def build_recogniser(cfg: Config, key, db, tune_images: tuple[np.ndarray, np.nda
                              progress=lambda it, total: progress(it, desc="train", total=total))
     elif cfg.classifier == "cnn":
         net = trained_convnet(cfg, db)
+    elif cfg.classifier == "scene_cnn":
+        if skin is None:
+            raise ValueError("skin: the scene convnet needs the skin model that segments the queries")
+        net = trained_scene_convnet(cfg, skin)
     x = transformed(metric, x)
     model = hog_jax.fit(x, db.labels, db.euler, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
     if tune_images is None:
         return Recogniser(hcfg, metric, model, {}, None, cfg.k, db, net)
-    images, masks, found = tune_images
-    q = transformed(metric, hog_features(images, masks, found, hcfg)[found])
+    t = tune_images
+    q = transformed(metric, hog_features(t.images, t.masks, t.found, hcfg)[t.found])
     tune = hog_jax.tune(jax.random.fold_in(key, 2), x, q, k=cfg.k, target_recall=cfg.lsh_target_recall,
                         n_probes=cfg.lsh_probes)
     index = hog_jax.build_index(jax.random.fold_in(key, 3), x, tune.n_bits, tune.n_tables)
@@ -94,23 +100,47 @@ def trained_convnet(cfg: Config, db) -> ConvClassifier:
         progress=lambda it, total: progress(it, desc="train convnet", total=total)))
 
 
+def trained_scene_convnet(cfg: Config, skin) -> ConvClassifier:
+    """The convnet on the unmasked boxes around the hand (`convnet`, context input), trained on
+    `cfg.n_scenes` rendered scenes per grasp (`randomized_scenes`, `cfg.n_scene_hands` hands each)
+    segmented by `skin` as the queries are (cfg.skin_adaptation); cached by the scenes' settings, the
+    skin model's arrays and the training settings (the segmentation runs only to train)."""
+    digest = hashlib.sha1()
+    for a in jax.tree_util.tree_leaves(skin):
+        digest.update(np.ascontiguousarray(np.asarray(a)).tobytes())
+    settings = dict(scenes=cfg.n_scenes, hands=cfg.n_scene_hands, frame=cfg.frame_size, skin=digest.hexdigest(),
+                    adaptation=cfg.skin_adaptation, crop=cfg.crop_size, seed=cfg.seed, width=cfg.cnn_width,
+                    epochs=cfg.cnn_epochs)
+
+    def train():
+        scenes = randomized_scenes(cfg.n_scenes, cfg.n_scene_hands, cfg.seed, cfg.frame_size,
+                                   progress=lambda it, total, d: progress(it, desc=d, total=total))
+        crops = segment_frames(skin, scenes.frames, cfg.crop_size, adaptation=cfg.skin_adaptation)
+        c = crops.take(crops.found)
+        return fit_convnet(c.images, c.masks, scenes.labels[crops.found], len(GRASP_CLASSES), cfg.seed, cfg.cnn_width,
+                           cfg.cnn_epochs, progress=lambda it, total: progress(it, desc="train scene convnet",
+                                                                               total=total), context=c.context)
+
+    return cached_convnet(settings, train, context=True)
+
+
 def features(rec: Recogniser, images, masks, found) -> np.ndarray:
     """(N, D') features of crops (N, S, S) with masks; rows where `found` is False are zero (unused)."""
     return transformed(rec.metric, hog_features(images, masks, found, rec.hog)) * found[:, None]
 
 
-def net_labels(rec: Recogniser, images, masks, found) -> np.ndarray | None:
+def net_labels(rec: Recogniser, crops: Crops) -> np.ndarray | None:
     """(N,) the network's classes of the crops (-1 where no hand was found), or None without a network."""
     if rec.net is None:
         return None
-    labels = np.full(len(images), -1, np.int32)
-    if not found.any():
+    labels = np.full(len(crops.found), -1, np.int32)
+    if not crops.found.any():
         return labels
+    c = crops.take(crops.found)
     if isinstance(rec.net, ConvClassifier):
-        labels[found] = classify_crops(rec.net, images[found], masks[found])
+        labels[crops.found] = classify_crops(rec.net, c.images, c.masks, context=c.context)
     else:
-        labels[found] = classify(rec.net, hog_features(images[found], masks[found], np.ones(int(found.sum()), bool),
-                                                       rec.hog))
+        labels[crops.found] = classify(rec.net, hog_features(c.images, c.masks, c.found, rec.hog))
     return labels
 
 

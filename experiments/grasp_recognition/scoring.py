@@ -10,8 +10,8 @@ import numpy as np
 
 import hog_jax
 from experiments.data.grasp_tests import GraspTestSet, stage_subsets
-from experiments.grasp_recognition.pieces import (accuracy, confusion, orientation_errors_deg, symmetric_errors_deg,
-                                                  wilson_interval)
+from experiments.grasp_recognition.pieces import (Crops, accuracy, confusion, orientation_errors_deg,
+                                                  symmetric_errors_deg, wilson_interval)
 from experiments.grasp_recognition.recogniser import Recognised, Recogniser, features, net_labels, recognise
 from sim.grasp_objects import GRASP_CLASSES
 
@@ -33,15 +33,15 @@ def lsh_recall(rec: Recogniser, q: np.ndarray) -> float:
     return hog_jax.recall_at_k(approx.indices, exact.indices)
 
 
-def score_sets(rec: Recogniser, tests: dict[str, GraspTestSet], crops: dict[str, tuple]) -> SetScores:
-    """Recognise every crop of `tests` ({'X': ..., 'large': ...}; crops: name -> (images, masks, found))
+def score_sets(rec: Recogniser, tests: dict[str, GraspTestSet], crops: dict[str, Crops]) -> SetScores:
+    """Recognise every crop of `tests` ({'X': ..., 'large': ...}; crops: name -> `pieces.Crops`)
     by the recogniser (its network's class, or eq. 3 by its LSH index) and by eq. 3 with exact search
     (`accuracy_*_exact_knn`), and score them."""
     m, results, feats, mats = {}, {}, {}, {}
     for name, t in tests.items():
-        images, masks, found = crops[name]
-        feats[name] = features(rec, images, masks, found)
-        labels = net_labels(rec, images, masks, found)
+        found = crops[name].found
+        feats[name] = features(rec, crops[name].images, crops[name].masks, found)
+        labels = net_labels(rec, crops[name])
         lsh = recognise(rec, feats[name], found, labels=labels)
         exact = recognise(rec, feats[name], found, exact=True)  # eq. 3 by exact kNN, beside
         results[name] = (lsh, exact)

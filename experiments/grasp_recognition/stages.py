@@ -17,7 +17,7 @@ from experiments.data.grasp_tests import random_set, sequence_set, skin_training
 from experiments.grasp_recognition import plots
 from experiments.grasp_recognition.config import EULER_NAMES, PRESETS, Config
 from experiments.grasp_recognition.ladder import RUNGS, mask_crops, rung_sets
-from experiments.grasp_recognition.pieces import (accuracy, bar, degrade_crops, held_out_views, render_database,
+from experiments.grasp_recognition.pieces import (Crops, accuracy, bar, degrade_crops, held_out_views, render_database,
                                                   robot_accuracy, segment_frames, sweeps)
 from experiments.grasp_recognition.recogniser import Recogniser, build_recogniser, net_labels
 from experiments.grasp_recognition.scoring import score_sets
@@ -57,9 +57,9 @@ def database(cfg: Config):
     return db._replace(images=images, masks=masks)
 
 
-def validation_crops(cfg: Config, skin) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def validation_crops(cfg: Config, skin) -> Crops:
     """Query-like validation images (their own seed and hand, `VALIDATION_SHAPE`, every nuisance of the
-    test), skin-segmented like the test: (images, masks, found)."""
+    test), skin-segmented like the test."""
     val = random_set(cfg.n_validation, cfg.seed + 1, cfg.frame_size, shape=VALIDATION_SHAPE,
                      progress=bar("render validation set"))
     return segment_frames(skin, val.frames, cfg.crop_size, adaptation=cfg.skin_adaptation)
@@ -81,14 +81,14 @@ def setup_stage(cfg: Config) -> Setup:
 
     both = segment_frames(skin, np.concatenate([X.frames, large.frames]), cfg.crop_size,  # one worker for both
                           adaptation=cfg.skin_adaptation)
-    seg = {"X": tuple(a[: len(X.labels)] for a in both), "large": tuple(a[len(X.labels):] for a in both)}
+    seg = {"X": both.take(slice(None, len(X.labels))), "large": both.take(slice(len(X.labels), None))}
     tests = {"X": X, "large": large}
     if cfg.lsh_tuning == "database":
         ho_img, ho_mask = held_out_views(cfg)
-        tuning = (ho_img, ho_mask, np.ones(len(ho_img), bool))
+        tuning = Crops(ho_img, ho_mask, np.ones(len(ho_img), bool), ho_img)
     else:
         tuning = validation_crops(cfg, skin)
-    rec = build_recogniser(cfg, key, db, tuning)
+    rec = build_recogniser(cfg, key, db, tuning, skin)
     scores = score_sets(rec, tests, seg)
     metrics = {"n_database_views": len(db.labels), "n_views_per_grasp": len(db.labels) // len(GRASP_CLASSES),
                "n_test_X": len(X.labels), "n_test_large": len(large.labels), "hog_dim": int(rec.model.data.shape[1]),
@@ -125,14 +125,14 @@ def recognition_stage(cfg: Config, s: Setup) -> tuple[StageResult, dict]:
               "true_class_X": [GRASP_CLASSES[i] for i in X.labels],
               "recognised_class_X": [GRASP_CLASSES[i] if i >= 0 else -1 for i in res["X"].labels],
               "stage_X": X.stage.tolist()}
-    found = s.seg["X"][2]
+    found = s.seg["X"].found
     picks = [i for i in np.flatnonzero(found)][:: max(1, int(found.sum()) // 6)][:6]
     figures = {
         "confusion.png": plots.plot_confusions(mats, accs),
         "orientation.png": plots.plot_orientation(errs, geo),
-        "neighbours.png": plots.plot_neighbours([(s.seg["X"][0][i], i) for i in picks], s.rec.db, res["X"].indices,
+        "neighbours.png": plots.plot_neighbours([(s.seg["X"].images[i], i) for i in picks], s.rec.db, res["X"].indices,
                                                 res["X"].distances, X.labels, res["X"].labels),
-        "contact_sheet.png": plots.plot_contact_sheet(s.rec.db, X, s.seg["X"][0], cfg.n_azimuth * cfg.n_elevation),
+        "contact_sheet.png": plots.plot_contact_sheet(s.rec.db, X, s.seg["X"].images, cfg.n_azimuth * cfg.n_elevation),
     }
     return StageResult(m, figures), {**nested, "mats": mats}
 
@@ -160,7 +160,7 @@ def ladder_stage(cfg: Config, s: Setup) -> StageResult:
 def lsh_stage(cfg: Config, s: Setup) -> StageResult:
     """LSH against exact kNN on the large set's queries: recall@k and query time (features to label)."""
     rec = s.rec
-    q = s.scores.features["large"][s.seg["large"][2]]
+    q = s.scores.features["large"][s.seg["large"].found]
     exact = hog_jax.exact_search(rec.model.data, q, cfg.k)
     lsh_args = {k_: v for k_, v in rec.lsh.items() if k_ != "index"}
     approx = hog_jax.query(rec.lsh["index"], q, cfg.k, **lsh_args)
@@ -168,9 +168,8 @@ def lsh_stage(cfg: Config, s: Setup) -> StageResult:
     t_exact = time_call(lambda: hog_jax.predict(rec.model, q, cfg.k).label, cfg.timing_repeats).median_s
     net = {}
     if rec.net is not None:  # the network's class of the same found crops (orientation: eq. 4, as timed above)
-        images, masks, found = s.seg["large"]
-        t_net = time_call(lambda: net_labels(rec, images[found], masks[found], found[found]),
-                          cfg.timing_repeats).median_s
+        found_crops = s.seg["large"].take(s.seg["large"].found)
+        t_net = time_call(lambda: net_labels(rec, found_crops), cfg.timing_repeats).median_s
         net = {"classifier_ms": 1e3 * t_net / len(q)}
     return StageResult({**net, "lsh_recall_at_k": hog_jax.recall_at_k(approx.indices, exact.indices),
                         "lsh_recall_at_k_tuning": float(rec.tune.recall), "lsh_n_bits": rec.tune.n_bits,
