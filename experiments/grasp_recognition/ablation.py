@@ -61,10 +61,10 @@ VARIANTS: dict[str, dict] = {
     "DR 10x + convnet on the crops": dict(n_random_views=8100, classifier="cnn"),
     "DR 10x + LDA + skin model adapted (background) + convnet": dict(n_random_views=8100, metric="lda",
                                                                      skin_adaptation="background", classifier="cnn"),
-    "skin model adapted (background) + scene convnet on the unmasked boxes": dict(skin_adaptation="background",
-                                                                                 classifier="scene_cnn"),
-    "DR 10x + LDA + skin model adapted (background) + scene convnet": dict(
-        n_random_views=8100, metric="lda", skin_adaptation="background", classifier="scene_cnn"),
+    "skin model adapted (background) + scene convnet on the unmasked boxes (30 epochs)": dict(
+        skin_adaptation="background", classifier="scene_cnn", cnn_epochs=30),
+    "DR 10x + LDA + skin model adapted (background) + scene convnet (30 epochs)": dict(
+        n_random_views=8100, metric="lda", skin_adaptation="background", classifier="scene_cnn", cnn_epochs=30),
 }
 
 

@@ -85,7 +85,7 @@ def setup_stage(cfg: Config) -> Setup:
     tests = {"X": X, "large": large}
     if cfg.lsh_tuning == "database":
         ho_img, ho_mask = held_out_views(cfg)
-        tuning = Crops(ho_img, ho_mask, np.ones(len(ho_img), bool), ho_img)
+        tuning = Crops(ho_img, ho_mask, np.ones(len(ho_img), bool), ho_img)  # database views: black around the hand
     else:
         tuning = validation_crops(cfg, skin)
     rec = build_recogniser(cfg, key, db, tuning, skin)
