@@ -65,6 +65,8 @@ VARIANTS: dict[str, dict] = {
         skin_adaptation="background", classifier="scene_cnn", cnn_epochs=30),
     "DR 10x + LDA + skin model adapted (background) + scene convnet (30 epochs)": dict(
         n_random_views=8100, metric="lda", skin_adaptation="background", classifier="scene_cnn", cnn_epochs=30),
+    "DR 10x + LDA + skin model adapted (background) + scene convnet (60 epochs)": dict(
+        n_random_views=8100, metric="lda", skin_adaptation="background", classifier="scene_cnn", cnn_epochs=60),
 }
 
 
