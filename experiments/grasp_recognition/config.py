@@ -95,12 +95,12 @@ PRESETS = {
     "paper": {},
     # chosen on the validation split (`python -m experiments.grasp_recognition.ablation --split validation`):
     # the domain-randomised database (10x), the whitened-LDA metric, the frame-adapted background model, the
-    # class from the convnet on the unmasked box around the hand (`convnet`, trained 30 epochs on 5,000 rendered
+    # class from the convnet on the unmasked box around the hand (`convnet`, trained 60 epochs on 5,000 rendered
     # scenes per grasp, `randomized_scenes`; eq. 3's kNN vote is reported beside it), eq. 4's orientation within
     # that class; LSH with four probes per table tuned on query-like validation images (the fewest probes of
     # 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries: `lsh_probes`)
     "best": {"n_random_views": 8100, "metric": "lda", "skin_adaptation": "background", "lsh_tuning": "validation",
-             "lsh_probes": 4, "sweeps": False, "classifier": "scene_cnn", "cnn_epochs": 30},
+             "lsh_probes": 4, "sweeps": False, "classifier": "scene_cnn", "cnn_epochs": 60},
 }
 
 
