@@ -17,8 +17,9 @@ tones and other clutter); a frame where no skin is found counts as an error.
 
 Presets: `paper` is the paper's method as it is; `best` (issue 20, chosen on a validation split of its
 own seed and hand, `ablation`) adds a domain-randomised database (`experiments.data.grasp_database`), a
-whitened-LDA metric, a skin model adapted to each frame, the class from a small convnet on the crops
-trained on the database (`convnet`; eq. 4's orientation within that class) and multi-probe LSH tuned on
+whitened-LDA metric, a skin model adapted to each frame, the class from a small convnet on the unmasked
+box around the hand (the held object included) trained on rendered scenes (`convnet`,
+`grasp_database.randomized_scenes`; eq. 4's orientation within that class) and multi-probe LSH tuned on
 query-like validation images. Both run the ladder (`ladder`): the test sets re-rendered with one more of their
 differences from the database per rung, from the database hand on black to the full test.
 

@@ -10,9 +10,9 @@ of the predicted class. Two inputs:
   segmented like the queries. Holes are then cut from the mask channel only: skin segmentation
   misses hand pixels, the camera still sees them.
 
-Layers: 3x3 convolutions,
-ReLU, stride 2 four times (S -> S / 16) with one stride-1 layer after the first, `width`, 2, 4, 8 x
-`width` channels, dropout 0.3 on the flattened map, a 256-unit dense layer, 6 logits.
+Layers: 3x3 convolutions, ReLU, stride 2 four times (S -> S / 16) with one stride-1 layer after the
+first, `width`, 2, 4, 8 x `width` channels, dropout 0.3 on the flattened map, a 256-unit dense layer,
+6 logits.
 
 Shapes: N crops, S x S pixels (S a multiple of 16), M classes.
 """
