@@ -29,7 +29,7 @@ from phmm_jax.checks import (check_distances, check_fit_scale, check_grid_shape,
 from phmm_jax.data import Lengths, Sequences, check_feasible, stack_groups, to_device
 from phmm_jax.em import check_fit_result, em_step, initial_hmm, run_em
 from phmm_jax.emissions import stacked_log_density_columns
-from phmm_jax.model import HMM, HMMConfig, duration_log_probs, transitions_from_durations
+from phmm_jax.model import HMM, HMMConfig, duration_log_probs, reachable_states, transitions_from_durations
 from phmm_jax.options import FitOptions, check_options
 
 
@@ -107,7 +107,8 @@ def interpolate(phmm: PHMM, phi: Float[Array, " d"]) -> HMM:
 def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
     """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d). Differentiable in φ."""
     hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)  # arrays with a leading B axis
-    log_b = stacked_log_density_columns(X, hmms.means, hmms.covariances)  # (T, N, B)
+    reachable = reachable_states(phmm.config, X.shape[1])
+    log_b = stacked_log_density_columns(X, hmms.means, hmms.covariances, reachable)  # (T, N, B)
     return inference.forward_loglik(inference.stacked_chain(hmms), log_b, lengths)
 
 

@@ -275,6 +275,15 @@ def test_emissions_of_unreachable_states_are_skipped_exactly(cfg):
     pseudo = jnp.transpose(inference.posteriors(chain, banded, lengths).pseudo, (0, 2, 3, 1))
     np.testing.assert_allclose(pseudo, inference.pseudo_posteriors(messages), atol=1e-10)
     np.testing.assert_array_equal(inference.viterbi(chain, banded, lengths)[0], inference.viterbi(chain, full, lengths)[0])
+    # One model per sequence (the PHMM search's layout): the reachable states' densities are the full
+    # ones, every state left out is one no path visits, so the log-likelihoods agree.
+    per_sequence = lambda a: jnp.broadcast_to(a, (batch,) + a.shape)  # noqa: E731
+    stacked = np.asarray(stacked_log_density_columns(X, per_sequence(hmm.means), per_sequence(hmm.covariances),
+                                                     (first, last)))
+    in_band = (np.arange(cfg.n_states)[None] >= first[:, None]) & (np.arange(cfg.n_states)[None] <= last[:, None])
+    np.testing.assert_allclose(stacked[in_band], np.asarray(full)[in_band], rtol=1e-12)
+    assert np.all(np.isfinite(stacked[in_band])) and np.isneginf(stacked).any()
+    np.testing.assert_allclose(inference.forward_loglik(chain, jnp.asarray(stacked), lengths), messages.loglik, rtol=1e-12)
 
 
 def test_banded_forward_of_frames_too_few_for_the_states_is_minus_infinity():
