@@ -111,3 +111,26 @@ def test_side_regression_reads_the_final_fingertip():
     data = Dataset(features, action, side, np.repeat(["P1", "P2"], 12), "markers", names)
     train, test = data.subset(data.person == "P1"), data.subset(data.person == "P2")
     np.testing.assert_allclose(ev.side_regression(train, test), test.side, atol=0.05)
+
+
+def test_side_floor_is_chosen_on_training_persons_only(tmp_path, monkeypatch):
+    """`select_side_floor` fits only on training persons (never the fold's held-out one), scores every
+    floor on inner folds, and returns the floor of the lowest validation |φ − side|."""
+    root = write_ue_adl_folder(tmp_path / "adl", ["P01", "P02", "P03"], markers=True, repetitions=1)
+    data = load_dataset(root, "markers", n_frames=20)
+    train, _ = ev.leave_one_person_out(data)[0]  # P01 held out
+    seen = []
+    real_models = ev._side_models
+
+    def spy(fold_train, X_train, setting, floor, cfg):
+        seen.append(set(fold_train.person.tolist()))
+        return real_models(fold_train, X_train, setting, floor, cfg)
+
+    monkeypatch.setattr(ev, "_side_models", spy)
+    cfg = Config(side_floors=(0.01, 10.0), n_validation_folds=2, n_frames=20, n_iter=3, recognition_steps=2)
+    floor, scores = ev.select_side_floor(train, mt.Setting(2, "diag"), cfg, np.random.default_rng(0))
+    assert set(scores) == {"0.01", "10.0"} and all(0.0 <= v <= 1.2 for v in scores.values())
+    assert floor == min(cfg.side_floors, key=lambda f: scores[str(f)])
+    assert len(seen) == 4 and all(len(s) == 1 and "P01" not in s for s in seen)
+    with pytest.raises(ValueError, match="^side_floors"):
+        Config(side_floors=(0.0,))

@@ -31,6 +31,8 @@ class Config:
     n_validation_folds: int = 2    # inner leave-one-person-out folds that choose the HMM settings
     max_gap_s: float = 0.2         # marker gaps filled up to this length
     recognition_steps: int = 20    # quasi-Newton steps of the side PHMM's recognition
+    # covariance floors (standardised units squared) the side PHMMs choose from on validation persons
+    side_floors: tuple[float, ...] = (0.01, 0.1, 1.0, 10.0, 100.0)
 
     def __post_init__(self):
         for name in ("n_frames", "n_iter", "n_validation_folds", "recognition_steps"):
@@ -48,12 +50,14 @@ class Config:
             raise ValueError(f"grid_states: at most n_frames ({self.n_frames}) states, got {max(self.grid_states)}")
         if not 0.0 <= self.duration_spread < 1.0:
             raise ValueError(f"duration_spread: expected [0, 1), got {self.duration_spread}")
+        if not self.side_floors or min(self.side_floors) <= 0:
+            raise ValueError(f"side_floors: non-empty, every entry > 0, got {self.side_floors}")
         if self.reg_covar <= 0 or self.max_gap_s < 0:
             raise ValueError("reg_covar, max_gap_s: reg_covar > 0 and max_gap_s >= 0")
 
 
 PRESETS = {
     "quick": {"n_persons": 3, "grid_states": (5,), "grid_covariance": ("diag",), "n_iter": 10,
-              "n_validation_folds": 1, "n_frames": 50, "recognition_steps": 5},
+              "n_validation_folds": 1, "n_frames": 50, "recognition_steps": 5, "side_floors": (0.01, 10.0)},
     "paper": {},
 }

@@ -86,7 +86,8 @@ def run_method(method: str, folds, cfg, rng: np.random.Generator) -> MethodResul
 class SideResult(NamedTuple):
     """The side PHMMs over all folds: recognised action (B,), phi of the true action's PHMM (B,),
     true action, side (0 left, 1 right) and person (B,); seconds training and recognising; the
-    regression baseline's side estimate (B,) (`side_regression`)."""
+    regression baseline's side estimate (B,) (`side_regression`); the covariance floor chosen in each fold.
+    Training time includes the floor's selection."""
 
     action: np.ndarray
     phi: np.ndarray
@@ -96,6 +97,7 @@ class SideResult(NamedTuple):
     train_s: float
     test_s: float
     regression: np.ndarray
+    floors: tuple[float, ...]
 
     @property
     def side_correct(self) -> np.ndarray:
@@ -130,35 +132,76 @@ def side_regression(train: Dataset, test: Dataset) -> np.ndarray:
     return out
 
 
-def run_side_phmm(folds, settings: list, cfg) -> SideResult | None:
-    """Per fold and action a 1-D PHMM over the reach side (corner φ = 0: the left-arm trials, φ = 1:
-    the right-arm ones; synchronised local training, PHMM §III-B1) with the explicit-duration setting
-    the fold chose for `edhmm`; recognition (PHMM eq. 3) gives the action and φ; φ > 0.5 reads
-    "right". None when a training fold lacks one side of an action."""
+def _side_models(train: Dataset, X_train: np.ndarray, setting, floor: float, cfg) -> list[P.PHMM] | None:
+    """Per action a 1-D PHMM over the side (corner φ = 0: the left-arm trials, φ = 1: the right-arm
+    ones) with covariance floor `floor`; None when `train` lacks one side of an action."""
+    groups = [[X_train[(train.action == a) & (train.side == s)] for s in (0, 1)] for a in range(mt.N_ACTIONS)]
+    if any(len(g) == 0 for pair in groups for g in pair):
+        return None
+    config = mt.ed_config(setting, X_train.shape[1], cfg.duration_spread)
+    options = P.FitOptions(max_iter=cfg.n_iter, reg_covar=floor)
+    return [P.fit_phmm(pair, (2,), config, options=options) for pair in groups]
+
+
+def _side_phi(phmms, X_test: np.ndarray, action: np.ndarray, cfg) -> tuple[np.ndarray, np.ndarray]:
+    """(recognised action (B,), φ of the true action's PHMM (B,))."""
+    rec = P.recognize(phmms, X_test, n_steps=cfg.recognition_steps)
+    return np.asarray(rec.label), np.asarray(rec.phi)[np.arange(len(X_test)), action, 0]
+
+
+def select_side_floor(train: Dataset, setting, cfg, rng: np.random.Generator) -> tuple[float, dict[str, float]]:
+    """The covariance floor of the side PHMMs (`cfg.side_floors`) with the lowest mean |φ − side| over
+    `cfg.n_validation_folds` inner leave-one-person-out folds of the training persons (drawn by
+    `rng`; ties go to the smaller floor). With a few training persons the learnt covariances are the
+    spread of those persons only, and a new person's offsets are far outside it; φ then moves towards
+    the other corner, whose covariances are wider, instead of saying which arm moved (issue 21).
+    Returns (floor, {str(floor): mean validation |φ − side|})."""
+    persons = sorted(set(train.person.tolist()))
+    if len(cfg.side_floors) == 1 or len(persons) < 2:
+        return cfg.side_floors[0], {}
+    scores = {}
+    for floor in cfg.side_floors:
+        errors = []
+        for person in rng.permutation(persons)[:cfg.n_validation_folds]:
+            inner_train, inner_val = train.subset(train.person != person), train.subset(train.person == person)
+            X_train, X_val = mt.standardise(inner_train.features, inner_val.features)
+            phmms = _side_models(inner_train, X_train, setting, floor, cfg)
+            if phmms is None:
+                return cfg.side_floors[0], {}
+            errors.append(np.abs(_side_phi(phmms, X_val, inner_val.action, cfg)[1] - inner_val.side))
+        scores[str(floor)] = float(np.mean(np.concatenate(errors)))
+    best = min(range(len(cfg.side_floors)), key=lambda k: (scores[str(cfg.side_floors[k])], k))
+    return cfg.side_floors[best], scores
+
+
+def run_side_phmm(folds, settings: list, cfg, rng: np.random.Generator) -> SideResult | None:
+    """Per fold and action a 1-D PHMM over the reach side (synchronised local training, PHMM §III-B1)
+    with the explicit-duration setting the fold chose for `edhmm` and the covariance floor
+    `select_side_floor` chose on the fold's training persons; recognition (PHMM eq. 3) gives the
+    action and φ; φ > 0.5 reads "right". None when a training fold lacks one side of an action."""
     out = {k: [] for k in ("action", "phi", "truth", "side", "person", "regression")}
     train_s = test_s = 0.0
+    floors = []
     for (train, test), setting in zip(progress(folds, desc=f"side PHMMs ({folds[0][0].kind})"), settings):
+        (floor, _), seconds = _timed(lambda: select_side_floor(train, setting, cfg, rng), False)
+        floors.append(floor)
         X_train, X_test = mt.standardise(train.features, test.features)
-        config = mt.ed_config(setting, X_train.shape[1], cfg.duration_spread)
-        groups = [[X_train[(train.action == a) & (train.side == s)] for s in (0, 1)] for a in range(mt.N_ACTIONS)]
-        if any(len(g) == 0 for pair in groups for g in pair):
+        phmms, seconds_fit = _timed(lambda: _side_models(train, X_train, setting, floor, cfg), True)
+        if phmms is None:
             return None
-        options = P.FitOptions(max_iter=cfg.n_iter, reg_covar=cfg.reg_covar)
-        phmms, seconds = _timed(lambda: [P.fit_phmm(pair, (2,), config, options=options) for pair in groups], True)
-        train_s += seconds
-        rec, seconds = _timed(lambda: P.recognize(phmms, X_test, n_steps=cfg.recognition_steps), True)
+        train_s += seconds + seconds_fit
+        (action, phi), seconds = _timed(lambda: _side_phi(phmms, X_test, test.action, cfg), False)
         test_s += seconds
-        phi = np.asarray(rec.phi)[np.arange(len(X_test)), test.action, 0]
-        for key, value in (("action", np.asarray(rec.label)), ("phi", phi), ("truth", test.action),
-                           ("side", test.side), ("person", test.person),
-                           ("regression", side_regression(train, test))):
+        for key, value in (("action", action), ("phi", phi), ("truth", test.action), ("side", test.side),
+                           ("person", test.person), ("regression", side_regression(train, test))):
             out[key].append(value)
     return SideResult(*(np.concatenate(out[k]) for k in ("action", "phi", "truth", "side", "person")),
-                      train_s, test_s, np.concatenate(out["regression"]))
+                      train_s, test_s, np.concatenate(out["regression"]), tuple(floors))
 
 
 def evaluate(folds, cfg) -> tuple[dict[str, MethodResult], SideResult | None]:
     """Every method of `METHODS` on `folds` (one generator per method, from the seed), then the side
     PHMMs with the explicit-duration settings chosen for `edhmm`."""
     results = {m: run_method(m, folds, cfg, np.random.default_rng([cfg.seed, k])) for k, m in enumerate(METHODS)}
-    return results, run_side_phmm(folds, results["edhmm"].settings, cfg)
+    side_rng = np.random.default_rng([cfg.seed, len(METHODS)])
+    return results, run_side_phmm(folds, results["edhmm"].settings, cfg, side_rng)

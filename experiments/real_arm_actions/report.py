@@ -31,7 +31,9 @@ all folds (JAX compilation included in the first folds); selection time is repor
 **The parameter: reach side.** UE-ADL gives no reach targets, so the one parameter the recordings have
 is the arm used (L/R). Per action a 1-D PHMM over the side (corner φ = 0 trained on the left-arm
 trials, φ = 1 on the right-arm ones, synchronised local training, PHMM §III-B1) with the fold's
-chosen explicit-duration setting; recognition by gradient (PHMM eq. 3, ε = 0.1) gives the action
+chosen explicit-duration setting and a covariance floor chosen on the fold's training persons (inner
+leave-one-person-out folds, lowest mean |φ − side|, `side_floors`; metric `side_floors_chosen`);
+recognition (PHMM eq. 3, ε = 0.1) gives the action
 (the best PHMM) and φ; the side is "right" when φ of the true action's PHMM exceeds 0.5. Beside it
 (issue 21), the regression baseline: per action an affine least-squares map from the final fingertip
 positions (the frame farthest from the first; the angle files have no fingertip, so all 11 columns
@@ -78,8 +80,10 @@ def section(kind: str, folds, results: dict, side, cfg) -> str:
         rows.append(["side PHMMs: action", *(f"{100 * action_acc[p]:.1f}" for p in persons),
                      f"**{100 * sum(action_acc.values()) / len(action_acc):.1f}**", f"{side.train_s:.1f}",
                      f"{side.test_s:.1f}", "–", "as edhmm", "–"])
+        floors = ", ".join(f"{f:g}" for f in side.floors)
         rows.append(["side PHMMs: side (L/R)", *(f"{100 * side_acc[p]:.1f}" for p in persons),
-                     f"**{100 * sum(side_acc.values()) / len(side_acc):.1f}**", "", "", "–", "as edhmm", "–"])
+                     f"**{100 * sum(side_acc.values()) / len(side_acc):.1f}**", "", "", "–",
+                     f"as edhmm, covariance floor {floors}", "–"])
         reg_acc = side.per_person(side.regression_correct)
         rows.append(["baseline: side (L/R) by linear regression from the final fingertips", *(
             f"{100 * reg_acc[p]:.1f}" for p in persons), f"**{100 * sum(reg_acc.values()) / len(reg_acc):.1f}**",

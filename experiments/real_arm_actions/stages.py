@@ -56,6 +56,7 @@ def classification_metrics(results: dict[str, ev.MethodResult], side: ev.SideRes
             "per_person_side_accuracy_regression": side.per_person(side.regression_correct),
             "action_accuracy_phmm": float((side.action == side.truth).mean()),
             "per_person_side_accuracy_phmm": side.per_person(side.side_correct),
+            "side_floors_chosen": list(side.floors),
             "train_time_s_phmm": side.train_s, "test_time_s_phmm": side.test_s})
     return metrics
 
