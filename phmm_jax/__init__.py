@@ -27,7 +27,7 @@ Training (options: FitOptions(max_iter, tol, reg_covar, duration_pseudocount, fr
 
 Parametric HMMs
     phmm_log_likelihood(phmm, X, phi, lengths) -> (B,), differentiable in phi
-    recognize(phmms, X, lengths, epsilon=0.1, n_steps=6, lattice_points=5, face_steps=3) -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
+    recognize(phmms, X, lengths, epsilon=0.1, n_steps=6, lattice_points=None, face_steps=3) -> Recognition(label (B,), phi (B, K, d), loglik (B, K))
     synthesize(phmm, phi, length=100)          -> (length, D) mean movement
     with_observation_noise(model, variance)    -> the HMM / PHMM of x = y + N(0, variance I): Σ + variance I
     estimate_noise_variance(X, lengths)        -> σ² of white noise, from the sequences' second differences

@@ -213,9 +213,10 @@ class Recognition(NamedTuple):
     loglik: Float[Array, "B K"]
 
 
-def _start_lattice(n_params: int, points: int) -> jnp.ndarray:
-    axis = np.linspace(0.0, 1.0, points)
-    return jnp.asarray(np.stack(np.meshgrid(*[axis] * n_params, indexing="ij"), -1).reshape(-1, n_params))
+def _start_lattice(n_params: int, points: int | tuple[int, ...]) -> jnp.ndarray:
+    """(M, d) the lattice over [0, 1]^d with `points` per parameter (one count for all, or one each)."""
+    axes = [np.linspace(0.0, 1.0, n) for n in ((points,) * n_params if isinstance(points, int) else points)]
+    return jnp.asarray(np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, n_params))
 
 
 def _newton_direction(grad, hess, phi, lower, upper, damping):
@@ -249,15 +250,17 @@ def _secant_update(hess, s, y):
     return -(a + jnp.where(ok[:, None, None], update, 0.0))
 
 
-_FACE_MARGIN = 0.15  # how near a face of [0, 1]^d the face probe of `_search` looks
+_FACE_MARGIN = 0.15  # how near a grid line the probe of `_search` looks
+_PROBE_DISTANCES = (0.03, 0.075)  # how far across it the probes lie (at least)
+_LATTICE_PER_CELL = 6  # start-lattice intervals per grid cell beyond a grid of 2 (`recognize`; README)
 
 
 @partial(jax.jit, static_argnames=("n_steps", "lattice_points", "face_steps"))
 def _search(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points: int, face_steps: int):
-    """φ* for every sequence (PHMM eq. 3): the best point of a `lattice_points`^d lattice under the
+    """φ* for every sequence (PHMM eq. 3): the best point of a lattice (`_start_lattice`) under the
     full model, `n_steps` damped, projected quasi-Newton steps from there (exact Hessian at the start,
-    BFGS updates after, a step kept only where it raises the likelihood), then a probe across the
-    nearest faces of [0, 1]^d and `face_steps` more steps. Returns (φ (B, d), loglik (B,)).
+    BFGS updates after, a step kept only where it raises the likelihood), then probes across the
+    nearest grid lines and `face_steps` more steps. Returns (φ (B, d), loglik (B,)).
 
     Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
     sequence's gradient, and one reverse pass of that gradient along coordinate k gives row k of
@@ -302,18 +305,23 @@ def _search(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points: int, 
     damping = jnp.full(start.shape[0], 1e-3, start.dtype)
     phi, loglik = ascend((start, *with_hessian(start), damping), n_steps)
     if face_steps > 0:
-        # Covariances and durations stop changing at the faces of [0, 1]^d while the means go on, so
-        # the likelihood has a kink there and often a second maximum just across it. Probe the
-        # mirror image across the nearest face of every coordinate near one (one at a time and all
-        # together), restart from the best of these where it beats φ, and climb again.
-        face = jnp.where(phi < 0.5, 0.0, 1.0)
+        # Covariances and durations stop changing at the faces of [0, 1]^d while the means go on, and
+        # the d-linear interpolation changes cell at the grid lines between, so the likelihood has
+        # kinks there and often a second maximum just across. Probe the mirror image across the
+        # nearest grid line of every coordinate near one (one at a time and all together, at two
+        # distances at least), restart from the best of these where it beats φ, and climb again.
+        cells = jnp.asarray(phmm.grid_shape, phi.dtype) - 1.0
+        face = jnp.clip(jnp.round(phi * cells), 0.0, cells) / cells  # the nearest grid line of each coordinate
         offset = phi - face
         near = jnp.abs(offset) < _FACE_MARGIN
-        mirror = face - jnp.where(offset >= 0, 1.0, -1.0) * jnp.maximum(jnp.abs(offset), 0.5 * _FACE_MARGIN)
+        distances = jnp.asarray(_PROBE_DISTANCES, phi.dtype)[:, None, None]  # (R, 1, 1)
+        mirror = face - jnp.where(offset >= 0, 1.0, -1.0) * jnp.maximum(jnp.abs(offset), distances)  # (R, B, d)
         masks = jnp.concatenate([jnp.eye(d, dtype=bool), jnp.ones((1, d), bool)])  # (d + 1, d)
-        probes = jnp.clip(jnp.where(masks[:, None, :] & near[None], mirror[None], phi[None]), lower, upper)
-        tiled = lambda a: jnp.tile(a, (d + 1,) + (1,) * (a.ndim - 1))  # noqa: E731
-        probe_values = batch_phmm_log_likelihood(phmm, tiled(X), tiled(lengths), probes.reshape(-1, d)).reshape(d + 1, -1)
+        probes = jnp.where(masks[None, :, None, :] & near[None, None], mirror[:, None], phi[None, None])
+        n_probes = len(_PROBE_DISTANCES) * (d + 1)
+        probes = jnp.clip(probes.reshape(n_probes, -1, d), lower, upper)
+        tiled = lambda a: jnp.tile(a, (n_probes,) + (1,) * (a.ndim - 1))  # noqa: E731
+        probe_values = batch_phmm_log_likelihood(phmm, tiled(X), tiled(lengths), probes.reshape(-1, d)).reshape(n_probes, -1)
         probe_values = jnp.where(jnp.isfinite(probe_values), probe_values, -jnp.inf)
         take = jnp.max(probe_values, axis=0) > loglik
         restart = jnp.where(take[:, None], probes[jnp.argmax(probe_values, axis=0), jnp.arange(phi.shape[0])], phi)
@@ -329,15 +337,17 @@ def _search_shard(phmm: PHMM, epsilon, X, lengths, *, n_steps: int, lattice_poin
 
 
 def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
-              n_steps: int = 6, lattice_points: int = 5, face_steps: int = 3, *, mesh=None) -> Recognition:
+              n_steps: int = 6, lattice_points: int | None = None, face_steps: int = 3, *, mesh=None) -> Recognition:
     """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
 
     For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ), from the best point of a
-    `lattice_points`^d lattice by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
+    lattice over [0, 1]^d (`lattice_points` per parameter; None: 5 for a grid of 2 points, 6 intervals
+    per grid cell for more, 13 for 3; chosen on validation data) by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
     by automatic differentiation at the start, BFGS updates after; a step is kept only where it
-    raises the likelihood, so the result is never worse than the lattice), then a probe across the
-    nearest faces of [0, 1]^d, where interpolated covariances and durations stop and the means go on
-    (a kink, often with a second maximum just across), and `face_steps` more steps (0: no probe).
+    raises the likelihood, so the result is never worse than the lattice), then probes across the
+    nearest grid lines (the faces of [0, 1]^d, where interpolated covariances and durations stop and
+    the means go on, and the lines between grid cells, where the d-linear interpolation changes cell:
+    kinks, often with a second maximum just across), and `face_steps` more steps (0: no probe).
     The label is the k with the highest log-likelihood at its φ_k. Batched over sequences.
     phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
     Defaults: a lattice point scores all sequences under one model (cheap), a step needs one model
@@ -365,7 +375,8 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
     epsilon = check_real(epsilon, "epsilon", min_value=0.0)
     n_steps = check_int(n_steps, "n_steps", min_value=1)
     face_steps = check_int(face_steps, "face_steps", min_value=0)
-    lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
+    if lattice_points is not None:
+        lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
     X, lengths = pad_sequences(X, lengths, dim=phmms[0].local.dim)
     for k, phmm in enumerate(phmms):
         if phmm.local.dim != X.shape[-1] or phmm.n_params != phmms[0].n_params:
@@ -374,11 +385,12 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         reach = extrapolation_factor(phmm.grid_shape, np.full((1, phmm.n_params), -epsilon))
         check_phmm_distances(phmm, X, lengths, reach, f"phmms[{k}]", "epsilon")
     X, lengths = to_device(X, lengths)
+    lattice = lambda p: lattice_points or tuple(5 if g == 2 else _LATTICE_PER_CELL * g - 5 for g in p.grid_shape)  # noqa: E731
     if mesh is None:
-        results = [_search(p, X, lengths, epsilon, n_steps, lattice_points, face_steps) for p in phmms]
+        results = [_search(p, X, lengths, epsilon, n_steps, lattice(p), face_steps) for p in phmms]
     else:
-        static = (("n_steps", n_steps), ("lattice_points", lattice_points), ("face_steps", face_steps))
-        results = [map_batch(_search_shard, mesh, (p, epsilon), (X, lengths), static=static) for p in phmms]
+        static = lambda p: (("n_steps", n_steps), ("lattice_points", lattice(p)), ("face_steps", face_steps))  # noqa: E731
+        results = [map_batch(_search_shard, mesh, (p, epsilon), (X, lengths), static=static(p)) for p in phmms]
     phi = jnp.stack([r[0] for r in results], axis=1)
     loglik = jnp.stack([r[1] for r in results], axis=1)
     return Recognition(jnp.argmax(loglik, axis=1), phi, loglik)
