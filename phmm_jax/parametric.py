@@ -252,7 +252,11 @@ def _secant_update(hess, s, y):
 
 _FACE_MARGIN = 0.15  # how near a grid line the probe of `_search` looks
 _PROBE_DISTANCES = (0.03, 0.075)  # how far across it the probes lie (at least)
-_LATTICE_PER_CELL = 6  # start-lattice intervals per grid cell beyond a grid of 2 (`recognize`; README)
+
+
+def _default_lattice(grid_shape: tuple[int, ...]) -> tuple[int, ...]:
+    """Start-lattice points per parameter, chosen on validation data (README): 5 for 2 grid points."""
+    return tuple(5 if g == 2 else 6 * (g - 1) + 1 for g in grid_shape)  # else 6 intervals per cell
 
 
 @partial(jax.jit, static_argnames=("n_steps", "lattice_points", "face_steps"))
@@ -342,7 +346,7 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
 
     For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ), from the best point of a
     lattice over [0, 1]^d (`lattice_points` per parameter; None: 5 for a grid of 2 points, 6 intervals
-    per grid cell for more, 13 for 3; chosen on validation data) by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
+    per grid cell for more) by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
     by automatic differentiation at the start, BFGS updates after; a step is kept only where it
     raises the likelihood, so the result is never worse than the lattice), then probes across the
     nearest grid lines (the faces of [0, 1]^d, where interpolated covariances and durations stop and
@@ -385,7 +389,7 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         reach = extrapolation_factor(phmm.grid_shape, np.full((1, phmm.n_params), -epsilon))
         check_phmm_distances(phmm, X, lengths, reach, f"phmms[{k}]", "epsilon")
     X, lengths = to_device(X, lengths)
-    lattice = lambda p: lattice_points or tuple(5 if g == 2 else _LATTICE_PER_CELL * g - 5 for g in p.grid_shape)  # noqa: E731
+    lattice = lambda p: lattice_points or _default_lattice(p.grid_shape)  # noqa: E731
     if mesh is None:
         results = [_search(p, X, lengths, epsilon, n_steps, lattice(p), face_steps) for p in phmms]
     else:

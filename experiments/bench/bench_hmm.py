@@ -202,7 +202,7 @@ def em_recognition_stage(cfg: BenchConfig, hmm, hmm_cfg, X_np) -> dict:
     accuracy = float(np.mean(np.asarray(result.label) == 1))
     print(f"{'ours recognition (2 classes, phi search)':48s} {recognition_ms:9.2f} ms/seq (batch "
           f"{cfg.recognition_batch}, accuracy {accuracy:.2f})")
-    gap = search_gap(phmms, X_rec, np.asarray(result.loglik))
+    gap = search_gap(result.loglik, dense_search_logliks(phmms, X_rec))
     print(f"{'search gap to a 21^d scan + 30 + 10 steps':48s} within 1 nat {np.mean(gap <= 1):.3f}, median "
           f"{np.median(gap):.3f}, 90th percentile {np.percentile(gap, 90):.2f}, max {gap.max():.1f} nats")
     return {"em_iteration_s": em.median_s, "em_iteration_compile_s": em.first_s - em.median_s,
@@ -211,13 +211,18 @@ def em_recognition_stage(cfg: BenchConfig, hmm, hmm_cfg, X_np) -> dict:
             "search_gap_p90": float(np.percentile(gap, 90)), "search_gap_max": float(gap.max())}
 
 
-def search_gap(phmms, X, loglik) -> np.ndarray:
-    """(B * K,) how far `recognize`'s log-likelihoods (B, K) fall below a dense search per PHMM: the best
-    of a 21^d lattice, 30 quasi-Newton steps and the face probe with 10 more (0 where it does better)."""
+def dense_search_logliks(phmms, X) -> np.ndarray:
+    """(B, K) the log-likelihood per sequence and PHMM of a dense search: the best of a 21^d lattice,
+    30 quasi-Newton steps and the grid-line probe with 10 more (the reference of `search_gap`)."""
     X = jnp.asarray(X, jnp.float32)
     lengths = jnp.full(X.shape[0], X.shape[1], jnp.int32)
-    dense = np.stack([np.asarray(_search(p, X, lengths, 0.1, 30, 21, 10)[1]) for p in phmms], axis=1)
-    return np.maximum(dense - loglik, 0.0).ravel()
+    return np.stack([np.asarray(_search(p, X, lengths, 0.1, 30, 21, 10)[1]) for p in phmms], axis=1)
+
+
+def search_gap(loglik, dense: np.ndarray) -> np.ndarray:
+    """(B * K,) how far `recognize`'s log-likelihoods (B, K) fall below `dense_search_logliks`' (B, K),
+    0 where it does better."""
+    return np.maximum(dense - np.asarray(loglik), 0.0).ravel()
 
 
 def hmmlearn_stage(cfg: BenchConfig, hmm, X_np, table: Table) -> dict:

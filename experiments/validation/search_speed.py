@@ -56,10 +56,7 @@ print(json.dumps({"median_s": float(np.median(times)), "loglik": np.asarray(resu
 def export_workload(seed: int, folder: Path) -> np.ndarray:
     """Write seed's workload to `folder` (X.npy, phmm0.npz, phmm1.npz); returns the dense search's
     log-likelihoods (B, 2)."""
-    import jax.numpy as jnp
-
     import phmm_jax as P
-    from phmm_jax.parametric import _search
 
     cfg = bench_hmm.BenchConfig(seed=seed)
     hmm_cfg = P.HMMConfig(n_states=cfg.n_states, min_duration=cfg.min_duration, max_duration=cfg.max_duration)
@@ -68,9 +65,7 @@ def export_workload(seed: int, folder: Path) -> np.ndarray:
     np.save(folder / "X.npy", X)
     for k, phmm in enumerate(phmms):
         P.save(folder / f"phmm{k}.npz", phmm)
-    Xj = jnp.asarray(X, jnp.float32)
-    lengths = jnp.full(X.shape[0], X.shape[1], jnp.int32)
-    return np.stack([np.asarray(_search(p, Xj, lengths, 0.1, 30, 21, 10)[1]) for p in phmms], axis=1)
+    return bench_hmm.dense_search_logliks(phmms, X)
 
 
 def unpack_revision(revision: str, folder: Path) -> Path:
@@ -114,7 +109,7 @@ def main(argv=None) -> dict:
                     runs[name].append(run_side(tree, workload, args.repeats))
             row = {}
             for name, results in runs.items():
-                gap = np.maximum(dense - np.asarray(results[-1]["loglik"]), 0.0).ravel()
+                gap = bench_hmm.search_gap(results[-1]["loglik"], dense)
                 row[name] = {"ms_per_seq": 1e3 * float(np.median([r["median_s"] for r in results])) / dense.shape[0],
                              "within_1_nat": float(np.mean(gap <= 1.0)), "gap_median": float(np.median(gap)),
                              "gap_max": float(gap.max())}

@@ -17,22 +17,14 @@ import dataclasses
 import json
 from pathlib import Path
 
-import jax.numpy as jnp
 import numpy as np
 
 import phmm_jax as P
+from experiments.bench.bench_hmm import dense_search_logliks, search_gap
 from experiments.phmm_tabletop import measures as ms
 from experiments.phmm_tabletop.config import PRESETS, Config
 from experiments.phmm_tabletop.stages import GRIDS, data_stage
 from lfd_common import enable_compilation_cache
-from phmm_jax.parametric import _search
-
-
-def dense_logliks(phmms, X: np.ndarray) -> np.ndarray:
-    """(B, K) the dense search's log-likelihood per sequence and PHMM."""
-    Xj = jnp.asarray(X, jnp.float32)
-    lengths = jnp.full(X.shape[0], X.shape[1], jnp.int32)
-    return np.stack([np.asarray(_search(p, Xj, lengths, 0.1, 30, 21, 10)[1]) for p in phmms], axis=1)
 
 
 def summary(gap: np.ndarray) -> dict:
@@ -56,10 +48,9 @@ def main(argv=None) -> dict:
     for sigma in (float(s) for s in args.noise_cm.split(",")):
         X = d.X_test + (sigma / 100) * rng.standard_normal(d.X_test.shape) if sigma > 0 else d.X_test
         for grid in GRIDS:
-            dense = dense_logliks(models[grid], X)
+            dense = dense_search_logliks(models[grid], X)
             for name, options in searches.items():
-                found = np.asarray(P.recognize(models[grid], X, **options).loglik)
-                row = summary(np.maximum(dense - found, 0.0).ravel())
+                row = summary(search_gap(P.recognize(models[grid], X, **options).loglik, dense))
                 out[f"{grid}, sigma {sigma:g} cm, {name}"] = row
                 print(f"{grid} sigma {sigma:g} cm {name:18s} within 1 nat {row['within_1_nat']:.1%} of "
                       f"{row['n_pairs']} pairs, median {row['median']:.3f}, p90 {row['p90']:.2f}, "
