@@ -159,10 +159,11 @@ def select_side_floor(train: Dataset, setting, cfg, rng: np.random.Generator) ->
     persons = sorted(set(train.person.tolist()))
     if len(cfg.side_floors) == 1 or len(persons) < 2:
         return cfg.side_floors[0], {}
+    held = rng.permutation(persons)[:cfg.n_validation_folds]  # the same validation persons for every floor
     scores = {}
     for floor in cfg.side_floors:
         errors = []
-        for person in rng.permutation(persons)[:cfg.n_validation_folds]:
+        for person in held:
             inner_train, inner_val = train.subset(train.person != person), train.subset(train.person == person)
             X_train, X_val = mt.standardise(inner_train.features, inner_val.features)
             phmms = _side_models(inner_train, X_train, setting, floor, cfg)
