@@ -62,37 +62,26 @@ Example::
     fused = crf_jax.fuse(la, lo, crf_jax.cooccurrence(a_tr, o_tr, Ka, Ko, smoothing=0.1))
     crf_jax.save("chain.npz", model); model = crf_jax.load("chain.npz")
 """
-from crf_jax.chain import (
-    ChainCRF,
-    ChainStructure,
-    init_chain,
-    log_likelihood,
-    predict,
-    predict_marginals,
-    segment_log_probs,
-)
-from crf_jax.chcrf import CHCRFResult, HistoryPosterior, apply_history, cooccurrence, fuse, history_prior
-from crf_jax.fcrf import FCRF, FCRFMarginals, FCRFStructure, SegmentLabels, init_fcrf
-from crf_jax.fcrf import predict_marginals as fcrf_marginals
-from crf_jax.fcrf import predict_segments as fcrf_predict_segments
-from crf_jax.fcrf import segment_log_probs as fcrf_segment_log_probs
-from crf_jax.hcrf import HCRF, HCRFStructure, init_hcrf
-from crf_jax.hcrf import log_probs as hcrf_log_probs
-from crf_jax.hcrf import predict as hcrf_predict
-from crf_jax.io import load, save
-from crf_jax.linear import LinearModel, LinearStructure, init_linear
-from crf_jax.linear import predict as linear_predict
-from crf_jax.linear import predict_log_proba as linear_log_proba
-from crf_jax.solver import FitOptions, FitResult, TrainInfo, minimize
-from crf_jax.train import fit_chain, fit_fcrf, fit_hcrf, fit_linear
+from crf_jax._src.chain import (ChainCRF, ChainStructure, init_chain, log_likelihood, predict,
+                                predict_marginals, segment_log_probs)
+from crf_jax._src.chcrf import CHCRFResult, HistoryPosterior, apply_history, cooccurrence, fuse, history_prior
+from crf_jax._src.fcrf import (FCRF, FCRFMarginals, FCRFStructure, SegmentLabels,
+                               predict_marginals as fcrf_marginals, predict_segments as fcrf_predict_segments,
+                               segment_log_probs as fcrf_segment_log_probs, init_fcrf)
+from crf_jax._src.hcrf import (HCRF, HCRFStructure, log_probs as hcrf_log_probs, predict as hcrf_predict,
+                               init_hcrf)
+from crf_jax._src.io import load, save
+from crf_jax._src.linear import (LinearModel, LinearStructure, init_linear,
+                                 predict_log_proba as linear_log_proba, predict as linear_predict)
+from crf_jax._src.solver import FitOptions, FitResult, TrainInfo, minimize
+from crf_jax._src.train import fit_chain, fit_fcrf, fit_hcrf, fit_linear
 from lfd_common import pad_sequences
 
 __all__ = [
-    "CHCRFResult", "ChainCRF", "ChainStructure", "FCRF", "FCRFMarginals", "FCRFStructure", "FitOptions",
-    "FitResult", "HCRF", "HCRFStructure", "HistoryPosterior", "LinearModel", "LinearStructure", "SegmentLabels",
-    "TrainInfo", "apply_history", "cooccurrence", "fcrf_marginals", "fcrf_predict_segments",
-    "fcrf_segment_log_probs", "fit_chain", "fit_fcrf", "fit_hcrf", "fit_linear", "fuse", "hcrf_log_probs",
-    "hcrf_predict", "history_prior", "init_chain", "init_fcrf", "init_hcrf", "init_linear", "linear_log_proba",
-    "linear_predict", "load", "log_likelihood", "minimize", "pad_sequences", "predict",
-    "predict_marginals", "save", "segment_log_probs",
+    "CHCRFResult", "ChainCRF", "ChainStructure", "FCRF", "FCRFMarginals", "FCRFStructure", "FitOptions", "FitResult",
+    "HCRF", "HCRFStructure", "HistoryPosterior", "LinearModel", "LinearStructure", "SegmentLabels", "TrainInfo", "apply_history",
+    "cooccurrence", "fcrf_marginals", "fcrf_predict_segments", "fcrf_segment_log_probs", "fit_chain", "fit_fcrf", "fit_hcrf", "fit_linear",
+    "fuse", "hcrf_log_probs", "hcrf_predict", "history_prior", "init_chain", "init_fcrf", "init_hcrf", "init_linear",
+    "linear_log_proba", "linear_predict", "load", "log_likelihood", "minimize", "pad_sequences", "predict", "predict_marginals",
+    "save", "segment_log_probs",
 ]

@@ -23,9 +23,16 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime as _dt
+import importlib.metadata
 import json
 import math
 import numbers
+import os
+import platform
+import shlex
+import subprocess
+import sys
+import time
 import types
 import typing
 from collections.abc import Iterable, Mapping, Sequence
@@ -144,7 +151,50 @@ def parse_config(config_cls: type[C], presets: Mapping[str, Mapping[str, Any]], 
         out = Path("runs") / name / _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
     run = RunOutput(Path(out), name)
     run.write_json("config.json", {"experiment": name, "preset": preset, **dataclasses.asdict(cfg)})
+    run.write_json("run.json", run_info(name, argv))
     return cfg, run
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _git_describe() -> str | None:
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], capture_output=True, text=True,
+                             cwd=Path(__file__).resolve().parent, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
+def run_info(name: str, argv: Sequence[str] | None = None) -> dict[str, Any]:
+    """Where a run comes from, written as `run.json` beside its config.
+
+    Args:
+        name: The experiment's module under `experiments` (e.g. `phmm_tabletop`, `bench.bench_hmm`).
+        argv: The run's arguments (default: the process's own, `sys.argv[1:]`).
+
+    Returns:
+        The command that reproduces the run, its arguments, the installed `lfd-jax` version (None when
+        the package is not installed), the UTC start time, the machine (platform, Python, CPU model and
+        count) and `git describe` of the source tree (None outside a git checkout).
+    """
+    args = [str(a) for a in (sys.argv[1:] if argv is None else argv)]
+    try:
+        version = importlib.metadata.version("lfd-jax")
+    except importlib.metadata.PackageNotFoundError:
+        version = None
+    return {"command": shlex.join(["python", "-m", f"experiments.{name}", *args]), "argv": args,
+            "version": version, "started_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "platform": platform.platform(), "python": platform.python_version(), "cpu": _cpu_model(),
+            "cpu_count": os.cpu_count(), "git": _git_describe()}
 
 
 def _json_value(key: str, value: Any) -> Any:
@@ -206,6 +256,7 @@ class RunOutput:
         self.path = Path(path)
         self.name = name
         self.path.mkdir(parents=True, exist_ok=True)
+        self._started = time.monotonic()
 
     def file(self, filename: str) -> Path:
         return self.path / filename
@@ -229,7 +280,22 @@ class RunOutput:
         self.write_json(filename, written)
         if report is not None:
             self.write_report(report)
+        self._finish_run_info()
         return written
+
+    def _finish_run_info(self) -> None:
+        """Add the end time, the wall time and the JAX devices used to `run.json`, when the run has one."""
+        target = self.file("run.json")
+        if not target.is_file():
+            return
+        info = json.loads(target.read_text())
+        info["finished_utc"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+        info["wall_s"] = round(time.monotonic() - self._started, 1)
+        if "jax" in sys.modules:  # a run that used JAX: name its devices (importing JAX here would cost seconds)
+            devices = sys.modules["jax"].devices()
+            info["devices"] = sorted({f"{d.platform}:{getattr(d, 'device_kind', '')}" for d in devices})
+            info["device_count"] = len(devices)
+        self.write_json("run.json", info)
 
     def write_stages(self, results: Sequence[StageResult], header: str = "", **extra_metrics) -> dict[str, Any]:
         """`write` for a run made of stages: their metrics merged (plus `extra_metrics`), their figures

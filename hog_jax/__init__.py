@@ -34,30 +34,7 @@ Public API (shapes: B batch, H x W pixels, D feature length, N database points, 
   euler, indices, distances, found)`, `intra_class_sigma`, `vote`, `mean_rotation`, `euler_to_quat`,
   `quat_to_euler`.
 
-Video (LEVELSET TR §3-5; LfD 2009 §III-A; T frames, R regions):
-
-* Background (`background`, TR §3.5, eqs. 9-10, Stauffer–Grimson): `BackgroundStructure`,
-  `BackgroundOptions`, `BackgroundState`, `init_background`, `run_background(frames (T, H, W, 3),
-  no_update_masks)` -> (state, foreground (T, H, W)), `run_background_batch` (B videos);
-  `background.update` for one frame, `background.log_density` for eq. 9's P(X).
-* Colour models (`colour_models`, TR §3.4, eq. 8): `fit_gmm_bic`, `fit_person_background_models`,
-  `region_log_likelihoods`, `bic`, `gmm_n_params`, `ColourFit`, `ColourModels`, `ColourStructure`, `BICScores`.
-* Level sets (`levelset`, TR eqs. 5-7, 11, §5): `LevelSetStructure`, `LevelSetOptions`, `LevelSetResult`,
-  `evolve(structure, scores (R, H, W))`, `segment_video(structure, scores (T, R, H, W))`,
-  `init_level_sets`, `heaviside`, `dirac`, `curvature`, `contour_length`, `signed_distance`;
-  `chan_vese_segment` / `chan_vese_scores` (`levelset_grey`: two grey regions, the benchmark's case).
-* Blobs, tracking, stereo (`blobs`, `tracking`, `tracks`, `stereo`; TR §3.7): `connected_blobs`, `mask_ellipse`,
-  `ellipse_axes`, `weighted_moments`, `track` (α-β, `alpha_beta_gains`), `hand_face_positions` ->
-  `HandFacePositions`, `StereoCamera`, `project`, `triangulate`, `camera_matrices`.
-* The pipeline (`video`): `fit_skin`, `fit_video_models`, `region_scores`, `segment_recording`,
-  `segment_stereo(models, left, right, start, camera)` -> `StereoSegmentation` (labels in `REGIONS`
-  order: background, person, skin, object; -1 on boundaries).
-* Object around the hand (`phase_segmentation`, LfD 2009 §III-B, eqs. 1-4): `gradient_phase`,
-  `temporal_log_ratio` (moves with the hand), `stereo_log_ratio` (at the hand's depth) -> `LogRatio`;
-  `object_masks` (threshold, nearest large region, holes, opening: Fig. 3h-j); `segment_objects` from
-  grey stereo frames end to end -> `ObjectSegmentation`.
-* Temporal segmentation (`events`, LfD §III-D): `filter_in_hand`, `hold_undecided`, `periods_in_hand` -> `Periods`
-  (pick-up and put-down frames).
+The video front end is the subpackage `hog_jax.video`.
 
 Example::
 
@@ -83,52 +60,23 @@ an index marks a query with none at all by `Prediction.found` False, label -1, s
 orientation (no silent fallback); exact search always finds k. `segment` marks frames without skin
 by `Segmentation.found` False.
 """
-from hog_jax.exact import LSHResult, exact_search
-from hog_jax.background import (BackgroundOptions, BackgroundState, BackgroundStructure, init_background,
-                                run_background, run_background_batch)
-from hog_jax.blobs import Blobs, Ellipse, EllipseAxes, connected_blobs, ellipse_axes, mask_ellipse, weighted_moments
-from hog_jax.colour_models import (BICScores, ColourFit, ColourModels, ColourStructure, bic, fit_gmm_bic,
-                                   fit_person_background_models, gmm_n_params, region_log_likelihoods)
-from hog_jax.levelset import (LevelSetOptions, LevelSetResult, LevelSetStructure, contour_length, curvature, dirac,
-                              evolve, heaviside, init_level_sets, segment_video, signed_distance)
-from hog_jax.levelset_grey import chan_vese_scores, chan_vese_segment
-from hog_jax.stereo import StereoCamera, StereoProjection, Triangulation, camera_matrices, project, triangulate
-from hog_jax.tracking import INIT_RULES, TrackState, Tracks, alpha_beta_gains, track
-from hog_jax.tracks import FACE, HAND, OTHER_HAND, HandFacePositions, hand_face_positions
-from hog_jax.video import (REGIONS, StereoSegmentation, VideoModels, VideoOptions, VideoSegmentation, fit_skin,
-                           fit_video_models, region_scores, segment_recording, segment_stereo)
-from hog_jax.phase_segmentation import (LogRatio, ObjectSegmentation, gradient_phase, object_masks, segment_objects,
-                                       stereo_log_ratio, temporal_log_ratio)
-from hog_jax.events import Periods, filter_in_hand, hold_undecided, periods_in_hand
-from hog_jax.hog import HOGConfig, hog, hog_dim
-from hog_jax.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation, predict,
-                         quat_to_euler, vote)
-from hog_jax.lsh import LSHIndex, TuneResult, build_index, query, recall_at_k, tune
-from hog_jax.metric import LinearMetric, apply_metric, fit_metric
-from hog_jax.skin_adapt import adapt_skin_model, segment_adapted
-from hog_jax.segment import (GMM, Segmentation, SkinModel, SkinStructure, crop_components, fit_gmm, fit_skin_model,
-                             gmm_log_prob,
-                             load_skin_model, median3, rgb_to_chroma, save_skin_model, segment, skin_log_ratio)
+from hog_jax import video
+from hog_jax._src.checks import feature_limit
+from hog_jax._src.exact import LSHResult, exact_search
+from hog_jax._src.hog import HOGConfig, hog, hog_dim
+from hog_jax._src.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation,
+                              predict, quat_to_euler, vote)
+from hog_jax._src.lsh import LSHIndex, TuneResult, build_index, query, recall_at_k, tune
+from hog_jax._src.metric import LinearMetric, apply_metric, fit_metric
+from hog_jax._src.segment import (GMM, Segmentation, SkinModel, SkinStructure, crop_components, fit_gmm,
+                                  fit_skin_model, gmm_log_prob, load_skin_model, median3, rgb_to_chroma,
+                                  save_skin_model, segment, skin_log_ratio)
+from hog_jax._src.skin_adapt import adapt_skin_model, segment_adapted
 
 __all__ = [
-    "GMM", "Segmentation", "SkinModel", "SkinStructure", "crop_components", "fit_gmm", "fit_skin_model",
-    "gmm_log_prob", "load_skin_model",
-    "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
-    "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "Prediction", "TuneResult", "build_index",
-    "euler_to_quat", "exact_search", "fit", "hog", "hog_dim", "intra_class_sigma", "mean_rotation",
-    "predict", "query", "quat_to_euler", "recall_at_k", "tune", "vote", "LinearMetric", "apply_metric", "fit_metric",
-    "adapt_skin_model", "segment_adapted",
-    "BackgroundOptions", "BackgroundState", "BackgroundStructure", "init_background", "run_background",
-    "run_background_batch", "Blobs", "Ellipse", "EllipseAxes", "connected_blobs", "ellipse_axes", "mask_ellipse",
-    "weighted_moments", "BICScores", "ColourFit", "ColourModels", "ColourStructure", "bic", "fit_gmm_bic",
-    "fit_person_background_models", "gmm_n_params", "region_log_likelihoods", "LevelSetOptions", "LevelSetResult",
-    "LevelSetStructure", "contour_length", "curvature", "dirac", "evolve", "heaviside", "init_level_sets",
-    "segment_video", "signed_distance", "chan_vese_scores", "chan_vese_segment", "StereoCamera", "StereoProjection",
-    "Triangulation", "camera_matrices", "project", "triangulate", "INIT_RULES", "TrackState", "Tracks",
-    "alpha_beta_gains", "track", "FACE", "HAND", "OTHER_HAND", "HandFacePositions", "hand_face_positions",
-    "REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
-    "fit_video_models", "region_scores", "segment_recording", "segment_stereo",
-    "LogRatio", "ObjectSegmentation", "gradient_phase", "object_masks", "segment_objects", "stereo_log_ratio",
-    "temporal_log_ratio",
-    "Periods", "filter_in_hand", "hold_undecided", "periods_in_hand",
+    "GMM", "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "LinearMetric", "Prediction", "Segmentation",
+    "SkinModel", "SkinStructure", "TuneResult", "adapt_skin_model", "apply_metric", "build_index", "crop_components", "euler_to_quat",
+    "exact_search", "feature_limit", "fit", "fit_gmm", "fit_metric", "fit_skin_model", "gmm_log_prob", "hog",
+    "hog_dim", "intra_class_sigma", "load_skin_model", "mean_rotation", "median3", "predict", "quat_to_euler", "query",
+    "recall_at_k", "rgb_to_chroma", "save_skin_model", "segment", "segment_adapted", "skin_log_ratio", "tune", "vote",
 ]

@@ -61,28 +61,35 @@ Errors and edge cases
     `reg_covar` floors every variance (default 1e-4); with reg_covar=0 a singular covariance raises
     naming `reg_covar`; a state without responsibility keeps its Gaussian (RuntimeWarning).
 """
-from phmm_jax.api import Messages, Posteriors, log_likelihood, messages, posteriors, viterbi
-from phmm_jax.em import fit_hmm
-from phmm_jax.gradfit import fit_hmm_gradient
-from phmm_jax.io import PHMMStructure, load, save
-from phmm_jax.model import HMM, DenseHMM, HMMConfig, expand_to_dense, expected_durations
-from phmm_jax.noise import estimate_noise_variance, with_observation_noise
-from phmm_jax.online import (OnlineFrame, OnlineRecognizer, OnlineState, init_online, online_recognizer, online_scan,
-                             online_step, online_step_batch)
-from phmm_jax.online_events import OnlineEvents, OnlineStream, run_online
-from phmm_jax.options import FitOptions
-from phmm_jax.parametric import PHMM, Recognition, fit_phmm, grid_points, interpolate, phmm_log_likelihood, recognize
-from phmm_jax.retarget import MARKER_ORDER, ArmAngles, ArmSolution, retarget, solve_arm
-from phmm_jax.stream import StreamState, init_stream, stream_forward, stream_step, stream_step_batch
-from phmm_jax.synthesis import synthesize, target_to_phi
+from phmm_jax._src.api import (Messages, Posteriors, batch_log_likelihood, batch_posteriors, log_likelihood,
+                               messages, posteriors, viterbi)
+from phmm_jax._src.em import em_step, fit_hmm
+from phmm_jax._src.emissions import (gaussian_log_density, gaussian_log_density_columns,
+                                     stacked_log_density_columns)
+from phmm_jax._src.gradfit import fit_hmm_gradient
+from phmm_jax._src.io import PHMMStructure, load, save
+from phmm_jax._src.model import (DenseHMM, HMM, HMMConfig, expand_to_dense, expected_durations,
+                                 transitions_from_durations)
+from phmm_jax._src.noise import estimate_noise_variance, with_observation_noise
+from phmm_jax._src.online import (online_step_batch_jit, online_step_jit, OnlineFrame, OnlineRecognizer, OnlineState, init_online, online_recognizer,
+                                  online_scan, online_step, online_step_batch)
+from phmm_jax._src.online_events import OnlineEvents, OnlineStream, run_online
+from phmm_jax._src.options import FitOptions
+from phmm_jax._src.parametric import (search_parameters, PHMM, Recognition, batch_phmm_log_likelihood, fit_phmm, grid_points,
+                                      interpolate, phmm_log_likelihood, recognize)
+from phmm_jax._src.retarget import (ArmAngles, ArmSolution, DEFAULT_BASE_FRAME, MARKER_ORDER, retarget,
+                                    solve_arm)
+from phmm_jax._src.stream import StreamState, init_stream, stream_forward, stream_step, stream_step_batch
+from phmm_jax._src.synthesis import hermite_spline, multilinear_map, synthesize, target_to_phi
 
 __all__ = [
-    "ArmAngles", "ArmSolution", "FitOptions", "HMM", "MARKER_ORDER", "Messages", "PHMM", "PHMMStructure", "DenseHMM",
-    "HMMConfig", "OnlineEvents", "OnlineFrame", "OnlineRecognizer", "OnlineState", "OnlineStream", "Posteriors",
-    "Recognition", "StreamState",
-    "estimate_noise_variance", "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "grid_points",
-    "init_online", "init_stream", "interpolate", "load", "log_likelihood", "messages", "online_recognizer",
-    "online_scan", "online_step", "online_step_batch", "phmm_log_likelihood", "posteriors",
-    "recognize", "retarget", "run_online", "save", "solve_arm", "stream_forward", "stream_step", "stream_step_batch",
-    "synthesize", "target_to_phi", "viterbi", "with_observation_noise",
+    "online_step_batch_jit", "online_step_jit", "search_parameters",
+    "ArmAngles", "ArmSolution", "DEFAULT_BASE_FRAME", "DenseHMM", "FitOptions", "HMM", "HMMConfig", "MARKER_ORDER",
+    "Messages", "OnlineEvents", "OnlineFrame", "OnlineRecognizer", "OnlineState", "OnlineStream", "PHMM", "PHMMStructure",
+    "Posteriors", "Recognition", "StreamState", "batch_log_likelihood", "batch_phmm_log_likelihood", "batch_posteriors", "em_step", "estimate_noise_variance",
+    "expand_to_dense", "expected_durations", "fit_hmm", "fit_hmm_gradient", "fit_phmm", "gaussian_log_density", "gaussian_log_density_columns", "grid_points",
+    "hermite_spline", "init_online", "init_stream", "interpolate", "load", "log_likelihood", "messages", "multilinear_map",
+    "online_recognizer", "online_scan", "online_step", "online_step_batch", "phmm_log_likelihood", "posteriors", "recognize", "retarget",
+    "run_online", "save", "solve_arm", "stacked_log_density_columns", "stream_forward", "stream_step", "stream_step_batch", "synthesize",
+    "target_to_phi", "transitions_from_durations", "viterbi", "with_observation_noise",
 ]

@@ -18,17 +18,17 @@ target_rot, q0)` -> `IKResult(q, pos_error, rot_error, reachable)` run in JAX. `
 -> `TaskResult` picks an object up with the MAP §III grasp strategy, carries it to a place and puts it
 down (`sim.task_controller`).
 """
-from sim.manipulator import ManipulatorLayout, manipulator_model, manipulator_qpos, manipulator_scene_xml
-from sim.manipulator_ik import ArmChain, IKResult, arm_chain, forward_kinematics, solve_ik
-from sim.person_body import PersonLook
-from sim.person_scene import PART_LABELS, PART_NAMES, PersonScene, ScenePose, StereoRig, TableSpec, person_scene_xml
-from sim.render import render_frame, setup_rendering
-from sim.rollout import batched_rollout, worlds_from_qpos
-from sim.scenes import tabletop_drop_scene
-from sim.task_controller import TaskResult, TaskSpec, run_task
+from sim import grasping, hands, robot, scenes
+from sim.robot import (ArmChain, IKResult, ManipulatorLayout, TaskResult, TaskSpec, arm_chain,
+                       forward_kinematics, manipulator_model, manipulator_qpos, manipulator_scene_xml,
+                       run_task, solve_ik)
+from sim.scenes import (PART_LABELS, PART_NAMES, PersonLook, PersonScene, ScenePose, StereoRig, TableSpec,
+                        batched_rollout, person_scene_xml, render_frame, setup_rendering, tabletop_drop_scene,
+                        worlds_from_qpos)
 
-__all__ = ["ArmChain", "IKResult", "ManipulatorLayout", "arm_chain", "forward_kinematics", "manipulator_model",
-           "manipulator_qpos", "manipulator_scene_xml", "solve_ik",
-           "PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene", "ScenePose", "StereoRig", "TableSpec",
-           "person_scene_xml", "batched_rollout", "render_frame", "setup_rendering", "tabletop_drop_scene", "worlds_from_qpos",
-           "TaskResult", "TaskSpec", "run_task"]
+__all__ = [
+    "ArmChain", "IKResult", "ManipulatorLayout", "PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene", "ScenePose",
+    "StereoRig", "TableSpec", "TaskResult", "TaskSpec", "arm_chain", "batched_rollout", "forward_kinematics", "manipulator_model",
+    "manipulator_qpos", "manipulator_scene_xml", "person_scene_xml", "render_frame", "run_task", "setup_rendering", "solve_ik", "tabletop_drop_scene",
+    "worlds_from_qpos",
+]

@@ -22,11 +22,11 @@ FEW = settings(max_examples=3, deadline=None)   # fits: one compiled loop each, 
 FIT = crf_jax.FitOptions(max_iter=3)
 
 
-def _arrays(shape, lo=-2.0, hi=2.0):
+def float_arrays(shape, lo=-2.0, hi=2.0):
     return hnp.arrays(np.float64, shape, elements=st.floats(lo, hi, allow_nan=False, allow_infinity=False))
 
 
-features = _arrays((B, T, D), -10.0, 10.0)
+features = float_arrays((B, T, D), -10.0, 10.0)
 scales = st.sampled_from([1.0, 1e3, 1e6])
 lengths_st = hnp.arrays(np.int32, (B,), elements=st.integers(1, T))
 labels_st = hnp.arrays(np.int32, (B, T), elements=st.integers(0, K - 1))
@@ -38,25 +38,25 @@ def _f32(*arrays):
     return [jnp.asarray(a, jnp.float32) for a in arrays]
 
 
-def _chain(w, b, tr):
+def chain_crf(w, b, tr):
     return crf_jax.ChainCRF(*_f32(w, b, tr))
 
 
-chain_models = st.builds(_chain, _arrays((W, D, K)), _arrays((K,)), _arrays((K, K)))
+chain_models = st.builds(chain_crf, float_arrays((W, D, K)), float_arrays((K,)), float_arrays((K, K)))
 hcrf_models = st.builds(lambda w, b, tr: crf_jax.HCRF(*_f32(w, b, tr)),
-                        _arrays((W, D, KA, H)), _arrays((KA, H)), _arrays((KA, H, H)))
+                        float_arrays((W, D, KA, H)), float_arrays((KA, H)), float_arrays((KA, H, H)))
 fcrf_models = st.builds(lambda a, o, c: crf_jax.FCRF(a, o, jnp.asarray(c, jnp.float32)),
-                        st.builds(_chain, _arrays((W, D, KA)), _arrays((KA,)), _arrays((KA, KA))),
-                        st.builds(_chain, _arrays((W, D, KO)), _arrays((KO,)), _arrays((KO, KO))),
-                        _arrays((KA, KO)))
-linear_models = st.builds(lambda w, b: crf_jax.LinearModel(*_f32(w, b)), _arrays((D, K)), _arrays((K,)))
+                        st.builds(chain_crf, float_arrays((W, D, KA)), float_arrays((KA,)), float_arrays((KA, KA))),
+                        st.builds(chain_crf, float_arrays((W, D, KO)), float_arrays((KO,)), float_arrays((KO, KO))),
+                        float_arrays((KA, KO)))
+linear_models = st.builds(lambda w, b: crf_jax.LinearModel(*_f32(w, b)), float_arrays((D, K)), float_arrays((K,)))
 
 
-def _real(lengths):
+def real_frames(lengths):
     return np.arange(T)[None, :] < np.asarray(lengths)[:, None]
 
 
-def _lse(a, axis):
+def lse(a, axis):
     a = np.asarray(a, np.float64)
     m = np.max(a, axis=axis, keepdims=True)
     m = np.where(np.isfinite(m), m, 0.0)
@@ -64,14 +64,14 @@ def _lse(a, axis):
         return np.squeeze(np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)) + m, axis=axis)
 
 
-def _assert_distributions(p, real, atol=1e-5):
+def assert_distributions(p, real, atol=1e-5):
     """p (B, T, n): finite, in [0, 1], rows summing to 1 on real frames and 0 on padding."""
     p = np.asarray(p, np.float64)
     assert np.all(np.isfinite(p)) and np.all(p >= 0) and np.all(p <= 1 + atol)
     np.testing.assert_allclose(p.sum(-1), real.astype(float), atol=atol)
 
 
-def _assert_log_probs(lp, shape):
+def assert_log_probs(lp, shape):
     lp = np.asarray(lp, np.float64)
     assert lp.shape == shape and np.all(np.isfinite(lp)) and np.all(lp <= 0.0)
     return lp

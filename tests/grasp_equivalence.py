@@ -15,9 +15,9 @@ import sys
 
 import numpy as np
 
-from sim.grasp_objects import GRASP_CLASSES
-from sim.grasp_rollout import GraspOutcomes, rollout_grasps
-from sim.grasp_strategy import TrialParams, plan_trials
+from sim.grasping import GRASP_CLASSES
+from sim.grasping import GraspOutcomes, rollout_grasps
+from sim.grasping import TrialParams, plan_trials
 from tests.xla_level import run_module
 
 # The trials: one per grasp class, the 1 s hold shortened to this on both backends (on the shared

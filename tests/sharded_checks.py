@@ -58,8 +58,8 @@ def check_phmm(mesh) -> None:
 
 def check_hog(mesh) -> None:
     import hog_jax as H
-    from hog_jax.background import run_background_batch
-    from hog_jax.levelset import LevelSetOptions, LevelSetStructure, segment_video
+    from hog_jax.video import run_background_batch
+    from hog_jax.video import LevelSetOptions, LevelSetStructure, segment_video
 
     rng = np.random.default_rng(1)
     images = rng.random((7, 16, 16)).astype(np.float32)
@@ -93,7 +93,7 @@ def check_crf(mesh) -> None:
 
 
 def check_mjx(mesh) -> None:
-    from sim.grasp_rollout import rollout_grasps
+    from sim.grasping import rollout_grasps
     from tests.grasp_equivalence import equivalence_trials
 
     params, start = equivalence_trials("barrett")

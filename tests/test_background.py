@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hog_jax.background import (BackgroundOptions, BackgroundState, BackgroundStructure, init_background, log_density,
-                                run_background, run_background_batch, update)
+from hog_jax.video import (BackgroundOptions, BackgroundState, BackgroundStructure, init_background,
+    log_density, run_background, run_background_batch, update)
 
 OPTS = BackgroundOptions()
 
@@ -284,7 +284,7 @@ def test_bad_input_names_the_argument(message):
 
 def test_options_are_traced(events):
     """Changing alpha, rho or the decision rule reuses the compiled scan."""
-    from hog_jax import background
+    from hog_jax.video._src import background as background
     frames = events[0]
     run_background(frames, options=BackgroundOptions(alpha=0.3))
     before = background._run_jit._cache_size()

@@ -1,4 +1,4 @@
-"""The `lfd-jax` command line (issue 23), run as a user runs it: `python -m experiments.cli ...` in a
+"""The `lfd-jax` command line, run as a user runs it: `python -m experiments.cli ...` in a
 subprocess. Every subcommand's --help; phmm fit + recognize on small Nexus CSV and TRC files written
 here; grasp on two synthetic photos (one with a skin blob, one without) with a tiny database; video
 on a tiny synthetic clip; bad input ends in one line on stderr and exit status 2."""

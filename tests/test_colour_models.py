@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hog_jax.colour_models import (REGIONS, fit_gmm_bic, fit_person_background_models, gmm_n_params,
-                                   region_log_likelihoods)
+from hog_jax.video import (REGIONS, fit_gmm_bic, fit_person_background_models, gmm_n_params,
+    region_log_likelihoods)
 
 N = 2000
 FIT = {"candidates": (1, 2, 3, 4), "n_init": 2, "n_iter": 60}

@@ -10,7 +10,7 @@ import optax
 import pytest
 
 import crf_jax
-from crf_jax import chain, inference, train
+from crf_jax._src import chain as chain, inference as inference, train as train
 
 K, T = 3, 5
 # jitted once per shape: eager op-by-op dispatch would dominate the test time
@@ -308,9 +308,9 @@ def test_traced_options_do_not_recompile_and_any_optax_optimizer_works():
 
 
 # ----------------------------------------------------------------------------------------------
-# issue 17, case 16: large features
+# large features: float32 cancellation and overflow
 # ----------------------------------------------------------------------------------------------
-def test_issue17_case16_marginals_sum_to_one_for_large_features():
+def test_marginals_sum_to_one_for_large_features():
     """float32 cancellation in exp(alpha + beta - log Z) made rows sum to 1.016 at 1e4 and 1.63 at 1e6."""
     rng = np.random.default_rng(17)
     model = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32), _random_model(17, connectivity=1))
@@ -329,7 +329,7 @@ def test_issue17_case16_marginals_sum_to_one_for_large_features():
         assert np.all(np.isfinite(lp)) and np.all(lp <= 0)
 
 
-def test_issue17_case16_overflow_is_rejected_and_a_non_finite_objective_never_converges():
+def test_overflow_is_rejected_and_a_non_finite_objective_never_converges():
     rng = np.random.default_rng(16)
     X, y = _toy_data(rng, 4, t=6)
     huge = X.astype(np.float64) / np.abs(X).max() * 1e39  # finite in float64, not in float32

@@ -1,11 +1,11 @@
-"""Property tests (hypothesis) of crf_jax's public promise (issue 17):
+"""Property tests (hypothesis) of crf_jax's public promise:
 
 * valid input -> finite output of the documented shape: labels in range (-1 on padding), marginals
   that are distributions on real frames (0 on padding), log probabilities <= 0 that normalise;
 * invalid input -> `ValueError` whose message starts with the argument's name.
 
 Shapes are fixed (one compilation per function, reused across examples); hypothesis draws values,
-including feature scales up to 1e6 (float32 cancellation, issue 17 case 16) and -inf log probabilities.
+including feature scales up to 1e6 (where float32 cancellation once broke the marginals) and -inf log probabilities.
 """
 
 import jax
@@ -19,7 +19,7 @@ from hypothesis.extra import numpy as hnp
 import crf_jax
 from tests.crf_properties_common import (  # shapes, strategies and checks
     B, T, D, K, C, H, N, W, SETTINGS, FEW, FIT, features, scales, lengths_st, labels_st, bad_values,
-    frame_index, _chain, chain_models, _real, _lse, _assert_distributions, _assert_log_probs,
+    frame_index, chain_crf, chain_models, real_frames, lse, assert_distributions, assert_log_probs,
 )
 
 
@@ -27,24 +27,24 @@ from tests.crf_properties_common import (  # shapes, strategies and checks
 @given(model=chain_models, X=features, scale=scales, lengths=lengths_st, y=labels_st)
 def test_chain_inference_promise(model, X, scale, lengths, y):
     X = X * scale
-    real = _real(lengths)
+    real = real_frames(lengths)
     labels = np.asarray(crf_jax.predict(model, X, lengths))
     assert labels.shape == (B, T) and labels.dtype == np.int32
     assert np.all((labels[real] >= 0) & (labels[real] < K)) and np.all(labels[~real] == -1)
-    _assert_distributions(crf_jax.predict_marginals(model, X, lengths), real)
-    seg = _assert_log_probs(crf_jax.segment_log_probs(model, X, lengths), (B, K))
+    assert_distributions(crf_jax.predict_marginals(model, X, lengths), real)
+    seg = assert_log_probs(crf_jax.segment_log_probs(model, X, lengths), (B, K))
     if scale == 1.0:  # probabilities of K distinct label sequences: at most 1 in all
-        assert np.all(_lse(seg, 1) <= 1e-5)
-    _assert_log_probs(crf_jax.log_likelihood(model, X, y, lengths), (B,))
+        assert np.all(lse(seg, 1) <= 1e-5)
+    assert_log_probs(crf_jax.log_likelihood(model, X, y, lengths), (B,))
 
 
 @SETTINGS
 @given(model=chain_models, X=features, lengths=lengths_st, junk=st.sampled_from([np.nan, np.inf, 1e39]))
 def test_chain_padding_is_never_read(model, X, lengths, junk):
     padded = X.copy()
-    padded[~_real(lengths)] = junk
+    padded[~real_frames(lengths)] = junk
     np.testing.assert_array_equal(crf_jax.predict_marginals(model, padded, lengths),
-                                  crf_jax.predict_marginals(model, np.where(_real(lengths)[..., None], X, 0.0),
+                                  crf_jax.predict_marginals(model, np.where(real_frames(lengths)[..., None], X, 0.0),
                                                             lengths))
 
 

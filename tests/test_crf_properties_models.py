@@ -1,11 +1,11 @@
-"""Property tests (hypothesis) of crf_jax's public promise for the HCRF, FCRF, linear baselines and CHCRF fusion (issue 17):
+"""Property tests (hypothesis) of crf_jax's public promise for the HCRF, FCRF, linear baselines and CHCRF fusion:
 
 * valid input -> finite output of the documented shape: labels in range (-1 on padding), marginals
   that are distributions on real frames (0 on padding), log probabilities <= 0 that normalise;
 * invalid input -> `ValueError` whose message starts with the argument's name.
 
 Shapes are fixed (one compilation per function, reused across examples); hypothesis draws values,
-including feature scales up to 1e6 (float32 cancellation, issue 17 case 16) and -inf log probabilities.
+including feature scales up to 1e6 (where float32 cancellation once broke the marginals) and -inf log probabilities.
 """
 
 import dataclasses
@@ -22,17 +22,17 @@ from hypothesis.extra import numpy as hnp
 
 import crf_jax
 from tests.crf_properties_common import (  # shapes, strategies and checks
-    B, T, D, K, C, KA, KO, H, N, W, SETTINGS, FEW, FIT, _arrays, features, scales, lengths_st,
-    labels_st, bad_values, frame_index, _chain, chain_models, hcrf_models, fcrf_models,
-    linear_models, _real, _lse, _assert_distributions, _assert_log_probs,
+    B, T, D, K, C, KA, KO, H, N, W, SETTINGS, FEW, FIT, float_arrays, features, scales, lengths_st,
+    labels_st, bad_values, frame_index, chain_crf, chain_models, hcrf_models, fcrf_models,
+    linear_models, real_frames, lse, assert_distributions, assert_log_probs,
 )
 
 
 @SETTINGS
 @given(model=hcrf_models, X=features, scale=st.sampled_from([1.0, 1e3]), lengths=lengths_st)
 def test_hcrf_promise(model, X, scale, lengths):
-    lp = _assert_log_probs(crf_jax.hcrf_log_probs(model, X * scale, lengths), (B, KA))
-    np.testing.assert_allclose(_lse(lp, 1), 0.0, atol=1e-5)
+    lp = assert_log_probs(crf_jax.hcrf_log_probs(model, X * scale, lengths), (B, KA))
+    np.testing.assert_allclose(lse(lp, 1), 0.0, atol=1e-5)
     pred = np.asarray(crf_jax.hcrf_predict(model, X * scale, lengths))
     assert pred.shape == (B,) and np.all((pred >= 0) & (pred < KA))
 
@@ -41,13 +41,13 @@ def test_hcrf_promise(model, X, scale, lengths):
 @given(model=fcrf_models, X=features, scale=scales, lengths=lengths_st)
 def test_fcrf_exact_promise(model, X, scale, lengths):
     X = X * scale
-    real = _real(lengths)
+    real = real_frames(lengths)
     marg = crf_jax.fcrf_marginals(model, X, lengths)
-    _assert_distributions(marg.action, real)
-    _assert_distributions(marg.object, real)
-    lp = _assert_log_probs(crf_jax.fcrf_segment_log_probs(model, X, lengths), (B, KA, KO))
+    assert_distributions(marg.action, real)
+    assert_distributions(marg.object, real)
+    lp = assert_log_probs(crf_jax.fcrf_segment_log_probs(model, X, lengths), (B, KA, KO))
     if scale == 1.0:
-        assert np.all(_lse(lp.reshape(B, -1), 1) <= 1e-5)
+        assert np.all(lse(lp.reshape(B, -1), 1) <= 1e-5)
     seg = crf_jax.fcrf_predict_segments(model, X, lengths)
     assert np.all((np.asarray(seg.action) >= 0) & (np.asarray(seg.action) < KA))
     assert np.all((np.asarray(seg.object) >= 0) & (np.asarray(seg.object) < KO))
@@ -57,8 +57,8 @@ def test_fcrf_exact_promise(model, X, scale, lengths):
 @given(model=fcrf_models, X=features, lengths=lengths_st)
 def test_fcrf_loopy_beliefs_are_distributions(model, X, lengths):
     marg = crf_jax.fcrf_marginals(model, X, lengths, method="loopy", n_iter=3)
-    _assert_distributions(marg.action, _real(lengths), atol=1e-4)
-    _assert_distributions(marg.object, _real(lengths), atol=1e-4)
+    assert_distributions(marg.action, real_frames(lengths), atol=1e-4)
+    assert_distributions(marg.object, real_frames(lengths), atol=1e-4)
 
 
 @SETTINGS
@@ -104,7 +104,7 @@ def test_fit_hcrf_and_fcrf_promise(X, lengths, y):
 # ----------------------------------------------------------------------------------------------
 # linear baselines
 # ----------------------------------------------------------------------------------------------
-vectors = _arrays((N, D), -10.0, 10.0)
+vectors = float_arrays((N, D), -10.0, 10.0)
 
 
 @SETTINGS
@@ -112,8 +112,8 @@ vectors = _arrays((N, D), -10.0, 10.0)
 def test_linear_predict_promise(model, X, scale):
     pred = np.asarray(crf_jax.linear_predict(model, X * scale))
     assert pred.shape == (N,) and np.all((pred >= 0) & (pred < K))
-    lp = _assert_log_probs(crf_jax.linear_log_proba(model, X * scale), (N, K))
-    np.testing.assert_allclose(_lse(lp, 1), 0.0, atol=1e-5)
+    lp = assert_log_probs(crf_jax.linear_log_proba(model, X * scale), (N, K))
+    np.testing.assert_allclose(lse(lp, 1), 0.0, atol=1e-5)
 
 
 @FEW
@@ -171,11 +171,11 @@ def test_fuse_promise(la, lo, cooc):
     assert np.all(joint[impossible] == -np.inf) and np.all(np.asarray(res.log_z)[impossible] == -np.inf)
     ok = ~impossible
     if ok.any():
-        ref_z = _lse(ref[ok].reshape(ok.sum(), -1), 1)
+        ref_z = lse(ref[ok].reshape(ok.sum(), -1), 1)
         np.testing.assert_allclose(np.asarray(res.log_z)[ok], ref_z, rtol=1e-5, atol=1e-5)
         np.testing.assert_allclose(np.exp(joint[ok]), np.exp(ref[ok] - ref_z[:, None, None]), atol=1e-5)
-        np.testing.assert_allclose(_lse(np.asarray(res.log_action)[ok], 1), 0.0, atol=1e-5)
-        np.testing.assert_allclose(_lse(np.asarray(res.log_object)[ok], 1), 0.0, atol=1e-5)
+        np.testing.assert_allclose(lse(np.asarray(res.log_action)[ok], 1), 0.0, atol=1e-5)
+        np.testing.assert_allclose(lse(np.asarray(res.log_object)[ok], 1), 0.0, atol=1e-5)
 
 
 @SETTINGS
@@ -217,7 +217,7 @@ def test_cooccurrence_promise(pairs, smoothing):
 
 @SETTINGS
 @given(history=hnp.arrays(np.float64, (2, KA, KO), elements=st.floats(0.0, 1.0)),
-       positions=_arrays((2, 3), -1.0, 1.0), position=_arrays((3,), -1.0, 1.0), d0=st.floats(1e-3, 10.0),
+       positions=float_arrays((2, 3), -1.0, 1.0), position=float_arrays((3,), -1.0, 1.0), d0=st.floats(1e-3, 10.0),
        log_joint=hnp.arrays(np.float64, (KA, KO), elements=log_scores))
 def test_history_prior_and_apply_history_promise(history, positions, position, d0, log_joint):
     prior = np.asarray(crf_jax.history_prior(history, positions, position, default_distance=d0))
@@ -229,7 +229,7 @@ def test_history_prior_and_apply_history_promise(history, positions, position, d
     post = crf_jax.apply_history(log_joint, prior)
     lj = np.asarray(post.log_joint, np.float64)
     assert lj.shape == (KA, KO) and not np.any(np.isnan(lj)) and np.isfinite(float(post.log_normaliser))
-    np.testing.assert_allclose(_lse(lj.reshape(-1), 0), 0.0, atol=1e-5)
+    np.testing.assert_allclose(lse(lj.reshape(-1), 0), 0.0, atol=1e-5)
     assert np.all(lj[log_joint == -np.inf] == -np.inf)
 
 
@@ -261,7 +261,7 @@ def _quadratic(params, target):
 
 
 @SETTINGS
-@given(target=_arrays((3,), -100.0, 100.0), method=st.sampled_from(["lbfgs", "adam"]))
+@given(target=float_arrays((3,), -100.0, 100.0), method=st.sampled_from(["lbfgs", "adam"]))
 def test_minimize_promise(target, method):
     res = crf_jax.minimize(_quadratic, jnp.zeros(3), jnp.asarray(target, jnp.float32),
                            options=crf_jax.FitOptions(method=method, max_iter=20, learning_rate=0.5))

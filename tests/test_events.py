@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hog_jax.events import filter_in_hand, hold_undecided, periods_in_hand
+from hog_jax.video import filter_in_hand, hold_undecided, periods_in_hand
 
 
 def _runs(*pairs):

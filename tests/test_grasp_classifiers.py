@@ -1,4 +1,4 @@
-"""The learned grasp classifiers beside eq. 3's kNN (issue 20): the convnet on crops, the perceptron on HOG."""
+"""The learned grasp classifiers beside eq. 3's kNN: the convnet on crops, the perceptron on HOG."""
 import numpy as np
 import pytest
 

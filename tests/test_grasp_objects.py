@@ -1,8 +1,8 @@
 import mujoco
 import pytest
 
-from sim.grasp_objects import (GRASP_CLASSES, GRASP_MAPPINGS, GRASP_NAMES, GRASP_OBJECTS, ROBOT_GRASPS,
-                               VOLAR_GRASPS, check_grasp_class, robot_grasp_for)
+from sim.grasping import (GRASP_CLASSES, GRASP_MAPPINGS, GRASP_NAMES, GRASP_OBJECTS, ROBOT_GRASPS,
+    VOLAR_GRASPS, check_grasp_class, robot_grasp_for)
 
 
 def test_every_class_has_a_name_an_object_and_a_robot_grasp():

@@ -5,13 +5,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from sim.grasp_objects import GRASP_CLASSES, VOLAR_GRASPS
-from sim.grasp_rollout import SUBSTEPS, peak_touch, resolve_backend, rollout_grasps, warp_status
-from sim.grasp_strategy import (ALPHA0, APPROACH, CLOSE, CONTROL_DT_S, HOLD_S, RETRACT, TOUCH_THRESHOLD_N,
-                                controller_step, initial_state, plan_trials)
-from sim.robot_hands import grasp_model
-from sim.virtual_fingers import (VirtualFingers, entities_from_links, group_virtual_fingers,
-                                 match_virtual_fingers)
+from sim.grasping import GRASP_CLASSES, VOLAR_GRASPS
+from sim.grasping import SUBSTEPS, peak_touch, resolve_backend, rollout_grasps, warp_status
+from sim.grasping import (ALPHA0, APPROACH, CLOSE, CONTROL_DT_S, HOLD_S, RETRACT, TOUCH_THRESHOLD_N,
+    controller_step, initial_state, plan_trials)
+from sim.hands import grasp_model
+from sim.hands import VirtualFingers, entities_from_links, group_virtual_fingers, match_virtual_fingers
 from tests.grasp_equivalence import native_run
 
 
@@ -100,7 +99,7 @@ def _peak_touch_reference(substeps, layout):
 
 
 def test_peak_touch_keeps_the_position_of_the_substep_that_found_the_contact(barrett):
-    """Regression (issue 21): a contact found in an early substep of a control period must reach the
+    """Regression: a contact found in an early substep of a control period must reach the
     controller with that substep's position and normal (the last substep's were zeros, so the tactile
     correction of MAP §III fired without a contact position). numpy and jax inputs, against loops."""
     model, layout = barrett
@@ -199,8 +198,8 @@ def test_bad_input():
 def test_the_plan_is_made_for_the_handled_object():
     # an Abducted Thumb (open-loop, from the side) planned for the bottle instead of its own glass: the same
     # preshape and approach; the bottle's centre height, and a palm at least 1 cm off the bottle's surface
-    from sim.grasp_objects import GRASP_OBJECTS
-    from sim.grasp_strategy import object_extent
+    from sim.grasping import GRASP_OBJECTS
+    from sim.grasping import object_extent
 
     args = ("barrett", [4], np.zeros((1, 2)), [0.0], [True], [0])
     own, own_start = plan_trials(*args)
@@ -225,7 +224,7 @@ def native_runs(request):
 
 def test_every_grasp_touches_and_lifts_on_native(native_runs):
     """Every grasp's object is touched by the hand (every hand-object pair collides and steps) and
-    lifted 8 cm, the Barrett's Two-finger Thumb pinch of the 3 cm cube included (issue 21: it never
+    lifted 8 cm, the Barrett's Two-finger Thumb pinch of the 3 cm cube included (it never
     lifted before its preshape was spread). (The native / MJX-JAX equivalence of these trials:
     tests/test_grasp_equivalence_*.py.)"""
     hand, _, _, native = native_runs

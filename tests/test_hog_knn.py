@@ -170,9 +170,9 @@ def test_bad_input():
         intra_class_sigma(data[:2], np.array([0, 1]))
 
 
-# ------------------------------------------------------------------ issue 17: bad input, edge cases
+# ------------------------------------------------------------------ bad input, edge cases
 @pytest.mark.parametrize("offset", [0.0, 0.25])
-def test_issue17_case11_identical_features_floor_sigma(offset):
+def test_identical_features_floor_sigma(offset):
     """All-zero (or identical per class) features: eq. 5 gives sigma = 0 and predict divided by it
     (NaN scores and Euler angles, label 0). sigma is floored with a warning; eq. 3 becomes the
     nearest-neighbour vote."""
@@ -194,10 +194,10 @@ def test_issue17_case11_identical_features_floor_sigma(offset):
         fit(data, labels, sigma=1e-30)  # sigma^2 would underflow float32
 
 
-def test_issue17_case12_exact_search_range():
+def test_exact_search_is_exact_up_to_the_feature_limit():
     """Values 1e20 made the expanded squared distances overflow (wrong neighbours). Features beyond
     2^60 / sqrt(D) are rejected naming the argument; up to that bound the neighbours are exact."""
-    from hog_jax._checks import feature_limit
+    from hog_jax import feature_limit
     rng = np.random.default_rng(6)
     data = rng.normal(size=(200, 8))
     q = rng.normal(size=(9, 8))
@@ -217,7 +217,7 @@ def test_issue17_case12_exact_search_range():
     assert np.isfinite(np.asarray(pred.scores)).all() and np.all(np.asarray(pred.label) >= 0)
 
 
-def test_issue17_case14_no_neighbour_found_is_flagged():
+def test_no_neighbour_found_is_flagged():
     """An index that finds no neighbour for a query gave label 0, scores 0 and the identity
     orientation. Now: found False, label -1, scores 0, NaN orientation; exact search finds all."""
     from hog_jax import build_index

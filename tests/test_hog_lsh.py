@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from hog_jax import build_index, query, recall_at_k, tune
-from hog_jax import lsh as lsh_module
-from hog_jax.lsh import _bucket
+from hog_jax._src import lsh as lsh_module
+from hog_jax._src.lsh import bucket_ids
 
 
 def clustered(rng, n, d=16, centres=40):
@@ -45,7 +45,7 @@ def test_buckets_are_the_sign_codes(setup):
 
 def test_hash_into_small_table():
     codes = jax.numpy.arange(1 << 12, dtype=jax.numpy.uint32)
-    b = np.asarray(_bucket(codes, 12, jax.numpy.int32(5)))
+    b = np.asarray(bucket_ids(codes, 12, jax.numpy.int32(5)))
     assert b.min() >= 0 and b.max() < 32 and len(np.unique(b)) == 32  # H = 2^5 buckets, all used
 
 
@@ -119,8 +119,8 @@ def test_bad_input(setup):
         build_index(jax.random.key(0), np.zeros((0, 16)), 4, 2)
 
 
-# ------------------------------------------------------------------ issue 17: bad input, edge cases
-def test_issue17_case13_too_few_candidate_slots_named(setup):
+# ------------------------------------------------------------------ bad input, edge cases
+def test_too_few_candidate_slots_are_named(setup):
     """n_tables * n_per_table < k crashed inside top_k; it is a ValueError naming n_per_table."""
     from hog_jax import fit, predict
     data, q, _ = setup
@@ -138,7 +138,7 @@ def test_issue17_case13_too_few_candidate_slots_named(setup):
     chex.assert_shape(res.indices, (len(q), 10))
 
 
-def test_issue17_case15_empty_grid_and_int_key_named(setup):
+def test_empty_grid_and_int_key_are_named(setup):
     """tune(n_bits_grid=()) crashed on max() of an empty sequence; build_index(0, ...) inside JAX."""
     data, q, _ = setup
     with pytest.raises(ValueError, match="n_bits_grid: must not be empty"):
@@ -198,7 +198,7 @@ def test_candidates_are_the_distinct_bucket_members_in_either_deduplication(setu
     idx = build_index(jax.random.key(6), data, n_bits=6, n_tables=T)
     keys, order = np.asarray(idx.keys), np.asarray(idx.order)
     for x in q[:5]:
-        buckets = np.asarray(lsh_module._bucket(lsh_module._codes(jax.numpy.asarray(x[None]), idx.planes, idx.center),
+        buckets = np.asarray(lsh_module.bucket_ids(lsh_module._codes(jax.numpy.asarray(x[None]), idx.planes, idx.center),
                                                 6, idx.table_bits))[:, 0]
         slots = np.concatenate([order[t][keys[t] == buckets[t]][:C] for t in range(T)])
         in_order = list(dict.fromkeys(slots.tolist()))  # distinct, first appearance first

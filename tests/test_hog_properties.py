@@ -1,4 +1,4 @@
-"""hog_jax's promises as properties (issue 17): valid input -> finite, correctly shaped output;
+"""hog_jax's promises as properties: valid input -> finite, correctly shaped output;
 invalid input -> ValueError naming the argument.
 
 Shapes are fixed and only values are drawn, so every jitted function compiles once per module run;

@@ -222,8 +222,8 @@ def test_segment_bad_input(toy_model):
         segment(model, np.zeros((1, 10, 10, 3)), seed_points=[[1, 2, 3]])
 
 
-# ------------------------------------------------------------------ issue 17: bad input, edge cases
-def test_issue17_case9_one_pixel_per_class_floors_the_covariance(tmp_path):
+# ------------------------------------------------------------------ bad input, edge cases
+def test_one_pixel_per_class_floors_the_covariance(tmp_path):
     """One pixel per class and one component: the covariance of one sample was 0/0 (NaN means). It is
     floored at reg * I (with a warning) and the model classifies and round-trips."""
     skin, bg = np.array([[200.0, 140.0, 110.0]]), np.array([[40.0, 60.0, 200.0]])

@@ -3,13 +3,13 @@ import numpy as np
 import pytest
 
 import hog_jax
-from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS
-from sim.grasp_views import (crop_hand, hand_center, look_at_rotation, render_grasp, render_views,
-                             sphere_camera, view_euler, view_grid)
-from sim.human_grasps import (GRASP_POSTURES, grasp_contacts, grasp_plausibility, grasp_scene_xml,
-                              hand_pose_in_world, posture, scene_qpos)
-from sim.human_hand import (DEFAULT_SHAPE, FINGERS, JOINT_NAMES, JOINT_RANGES_DEG, NEUTRAL_POSTURE_DEG,
-                            TEST_SHAPE, HandShape, clip_posture, hand_model_xml, posture_qpos)
+from sim.grasping import GRASP_CLASSES, GRASP_OBJECTS
+from sim.grasping import (crop_hand, hand_center, look_at_rotation, render_grasp, render_views,
+    sphere_camera, view_euler, view_grid)
+from sim.hands import (GRASP_POSTURES, grasp_contacts, grasp_plausibility, grasp_scene_xml,
+    hand_pose_in_world, posture, scene_qpos)
+from sim.hands import (DEFAULT_SHAPE, FINGERS, JOINT_NAMES, JOINT_RANGES_DEG, NEUTRAL_POSTURE_DEG,
+    TEST_SHAPE, HandShape, clip_posture, hand_model_xml, posture_qpos)
 
 
 def _hand(shape=DEFAULT_SHAPE):

@@ -1,4 +1,4 @@
-"""The imitation loop (issue 21, "The loop"): one scripted demonstration with known answers through the
+"""The imitation loop: one scripted demonstration with known answers through the
 whole loop at the quick preset (rendered video -> the stereo front end -> the online PHMMs -> the
 nearest object -> the robot, `sim.task_controller`), and the loop's input checks.
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sim
-import sim.task_controller
+import sim.robot
 from experiments.imitation import Config, Demo, PRESETS
 from experiments.imitation import pipeline as pl
 from experiments.imitation import stages as st
@@ -59,7 +59,7 @@ def test_robot_fetches_the_recognised_object(loop):
     assert xy is not None and np.linalg.norm(xy - spec.object_xy[spec.target]) < 0.05
     assert pl.reach_target(phmms[pl.REACH], reach[:1]) is None  # shorter than any path: flagged
     res = st.robot_task(CFG, DEMO, r, phmms)
-    assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + sim.task_controller.STAGES
+    assert res.success == (res.failed_stage == "") and res.failed_stage in ("",) + sim.robot.STAGES
     if res.success:  # the handled object at the hand-over spot
         assert np.linalg.norm(np.asarray(res.object_pos)[:2] - CFG.handover_xy) < CFG.place_tolerance_m + 1e-6
 

@@ -1,25 +1,36 @@
-"""The layering of DESIGN.md, checked on the source: data flows one way, nothing imports upwards.
+"""The layering of docs/design.md, checked on the source: data flows one way, nothing imports upwards.
 
-lfd_common imports no other package of ours; phmm_jax, crf_jax and hog_jax import only lfd_common;
-sim imports lfd_common and hog_jax; no library imports experiments. Inside a library, modules never
-import the package's public `__init__` (nor `phmm_jax.api`, its public wrapper), so the public API
-is the top layer. Files stay under 400 lines.
+- lfd_common imports no other package of ours; phmm_jax, crf_jax and hog_jax import only lfd_common;
+  sim imports lfd_common and hog_jax; lfd_jax imports the libraries; no library imports lfd_jax or
+  experiments, and lfd_jax imports no experiments.
+- Private means private: no module imports an underscore name from another module, and outside a
+  package nothing imports the package's internals (`_src`); tests may, to check internals.
+- Inside a package, modules never import the package's public `__init__`, and no modules import
+  each other in a circle (imports inside functions count too).
+- A study (a folder of `experiments/` with a `__main__.py`) imports no other study and no benchmark.
 """
 import ast
+import itertools
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-OURS = {"lfd_common", "phmm_jax", "crf_jax", "hog_jax", "sim", "experiments"}
-ALLOWED = {
+LIBRARIES = {
     "lfd_common": set(),
     "phmm_jax": {"lfd_common"},
     "crf_jax": {"lfd_common"},
     "hog_jax": {"lfd_common"},
     "sim": {"lfd_common", "hog_jax"},
+    "lfd_jax": {"lfd_common", "phmm_jax", "crf_jax", "hog_jax", "sim"},
 }
-PUBLIC_WRAPPERS = {"phmm_jax.api"}
+OURS = set(LIBRARIES) | {"experiments", "tests"}
+STUDIES = sorted(p.parent.name for p in (ROOT / "experiments").glob("*/__main__.py"))
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
 def _is_module(dotted: str) -> bool:
@@ -27,32 +38,116 @@ def _is_module(dotted: str) -> bool:
     return base.with_suffix(".py").exists() or (base / "__init__.py").exists()
 
 
-def _imports(path: Path) -> list[str]:
-    """Every module `path` imports; `from pkg import name` of a non-module counts as importing pkg."""
-    names = []
+def _imports(path: Path) -> list[tuple[str, str | None]]:
+    """(module, imported name or None) for every import of ours in `path`, nested ones included."""
+    found = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
-            names += [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found += [(a.name, None) for a in node.names if a.name.split(".")[0] in OURS]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            assert node.level == 0, f"{path.relative_to(ROOT)}: relative import"
+            if node.module.split(".")[0] not in OURS:
+                continue
             for alias in node.names:
                 sub = f"{node.module}.{alias.name}"
-                names.append(sub if _is_module(sub) else node.module)
-    return names
+                found.append((sub, None) if _is_module(sub) else (node.module, alias.name))
+    return found
 
 
-@pytest.mark.parametrize("package", sorted(ALLOWED))
-def test_libraries_import_only_lower_layers(package):
-    for path in sorted((ROOT / package).rglob("*.py")):
-        for name in _imports(path):
-            top = name.split(".")[0]
-            if top in OURS and top != package:
-                assert top in ALLOWED[package], f"{path.relative_to(ROOT)} imports {name}"
-            if top == package and path.name != "__init__.py":
-                assert name != package and name not in PUBLIC_WRAPPERS, (
-                    f"{path.relative_to(ROOT)} imports its own public layer ({name})")
+def _sources(*tops: str) -> list[Path]:
+    return [p for top in tops for p in sorted((ROOT / top).rglob("*.py"))]
 
 
-def test_no_source_file_over_400_lines():
-    long = [f"{p.relative_to(ROOT)}: {n}" for p in sorted(ROOT.glob("[!.]*/**/*.py"))
-            if ".venv" not in p.parts and (n := len(p.read_text().splitlines())) > 400]
-    assert not long, long
+@pytest.mark.parametrize("package", sorted(LIBRARIES))
+def test_packages_import_only_lower_layers(package):
+    for path in _sources(package):
+        for module, _ in _imports(path):
+            top = module.split(".")[0]
+            if top != package:
+                assert top in LIBRARIES[package], f"{path.relative_to(ROOT)} imports {module}"
+
+
+def test_no_module_imports_an_underscore_name_of_another_module():
+    bad = [f"{p.relative_to(ROOT)}: {module}.{name}" for p in _sources(*OURS) for module, name in _imports(p)
+           if name is not None and name.startswith("_") and not name.startswith("__")]
+    assert not bad, bad
+
+
+def test_internals_are_imported_only_inside_their_package():
+    bad = []
+    for path in _sources(*(OURS - {"tests"})):
+        own = path.relative_to(ROOT).parts[0]
+        for module, _ in _imports(path):
+            if "_src" in module.split(".") and module.split(".")[0] != own:
+                bad.append(f"{path.relative_to(ROOT)} imports {module}")
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("package", sorted(LIBRARIES))
+def test_modules_do_not_import_their_own_public_layer(package):
+    for path in _sources(package):
+        if path.name == "__init__.py":
+            continue
+        for module, _ in _imports(path):
+            assert not (module == package or (_is_module(module) and (ROOT.joinpath(*module.split("."))
+                                                                         / "__init__.py").exists()
+                                              and module.split(".")[0] == package and "_src" not in module)), (
+                f"{path.relative_to(ROOT)} imports its package's public layer {module}")
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], itertools.count()
+
+    def visit(v):
+        index[v] = low[v] = next(counter)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in list(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+@pytest.mark.parametrize("package", sorted(OURS - {"tests"}))
+def test_no_import_circle_inside_a_package(package):
+    graph = {}
+    for path in _sources(package):
+        name = _module_name(path)
+        graph[name] = {m for m, _ in _imports(path) if m.split(".")[0] == package and m != name}
+    assert not _cycles(graph), _cycles(graph)
+
+
+def test_a_study_imports_no_other_study_and_no_benchmark():
+    assert len(STUDIES) >= 5, STUDIES
+    bad = []
+    for study in STUDIES:
+        for path in _sources(f"experiments/{study}"):
+            for module, _ in _imports(path):
+                parts = module.split(".")
+                if parts[0] == "experiments" and len(parts) > 1 and parts[1] != study and (
+                        parts[1] in STUDIES or parts[1] == "bench"):
+                    bad.append(f"{path.relative_to(ROOT)} imports {module}")
+    assert not bad, bad
+
+
+def test_the_circle_detector_finds_a_circle():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.ndimage import distance_transform_edt
 
-from hog_jax.levelset import (LevelSetOptions, LevelSetStructure, contour_length, curvature, dirac, evolve,
-                              heaviside, init_level_sets, segment_video, signed_distance)
-from hog_jax.levelset_grey import VAR_FLOOR, chan_vese_scores, chan_vese_segment
+from hog_jax.video import (LevelSetOptions, LevelSetStructure, contour_length, curvature, dirac, evolve,
+    heaviside, init_level_sets, segment_video, signed_distance)
+from hog_jax.video import VAR_FLOOR, chan_vese_scores, chan_vese_segment
 
 H, W = 48, 64
 YY, XX = np.mgrid[:H, :W]

@@ -1,4 +1,4 @@
-"""experiments.lfd_demonstration.features and .labelling (issue 19): the pipeline's per-frame OAC
+"""experiments.lfd_demonstration.features and .labelling: the pipeline's per-frame OAC
 features against NumPy / OpenCV references, and the CHCRF labels, eq. 10's history and Z(x) against
 hand computation and separable synthetic clips."""
 import numpy as np

@@ -1,4 +1,4 @@
-"""The real-recording loaders of `experiments.data.loaders` and `experiments.data.ue_adl` (issue 23):
+"""The real-recording loaders of `experiments.data.loaders` and `experiments.data.ue_adl`:
 Nexus CSV, TRC and C3D files written here read back to one `MarkerRecording` in metres with NaN
 gaps; gap filling against numpy.interp, the long-gap error, resampling; images, video and stereo
 pairs into (T, H, W, 3) uint8 RGB; and, when ../shared/data/ue_adl is present, one real file of

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from sim import arm_chain, forward_kinematics, manipulator_model, manipulator_qpos, manipulator_scene_xml, solve_ik
-from sim.grasp_objects import GRASP_OBJECTS
-from sim.manipulator import BASE_POS, DEFAULT_OBJECTS, HOME_Q, JOINT_RANGE, SHOULDER_M
-from sim.robot_hands import HAND_NAMES
+from sim.grasping import GRASP_OBJECTS
+from sim.robot import BASE_POS, DEFAULT_OBJECTS, HOME_Q, JOINT_RANGE, SHOULDER_M
+from sim.hands import HAND_NAMES
 
 N_RANDOM, N_FAR = 24, 4
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from mujoco import mjx
 
-from sim import _mjx_compat as compat
+from sim._src import mjx_compat as compat
 
 # a damped pendulum (implicit damping) and a free ball 1 cm into the floor: one penetrating contact
 _XML = """<mujoco>

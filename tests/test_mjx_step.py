@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from mujoco import mjx
 
-from sim.rollout import mjx_step
+from sim.scenes import mjx_step
 from tests.xla_level import run_module
 
 # A damped, actuated pendulum (implicit damping) and a free ball that falls onto the plane and the

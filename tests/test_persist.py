@@ -82,7 +82,7 @@ def test_metadata_is_readable_json(saved):
     assert meta["kind"] == KIND and meta["format"] == "lfd-jax"
 
 
-def test_issue17_case19_plain_npy_under_an_npz_name_is_a_clear_error(tmp_path):
+def test_plain_npy_under_an_npz_name_is_a_clear_error(tmp_path):
     fake = tmp_path / "array.npz"
     with open(fake, "wb") as f:
         np.save(f, np.zeros(3))
@@ -90,7 +90,7 @@ def test_issue17_case19_plain_npy_under_an_npz_name_is_a_clear_error(tmp_path):
         load_arrays(fake, KIND)
 
 
-def test_issue17_case20_corrupt_metadata_values_are_refused(tmp_path):
+def test_corrupt_metadata_values_are_refused(tmp_path):
     def with_meta(name, **meta):
         path = tmp_path / f"{name}.npz"
         base = {"format": "lfd-jax", "kind": KIND, "schema_version": 1, "config": {}}
@@ -103,7 +103,7 @@ def test_issue17_case20_corrupt_metadata_values_are_refused(tmp_path):
         load_arrays(with_meta("list_config", config=[1, 2]), KIND)
 
 
-def test_issue17_case20_bad_path_and_ragged_arrays_name_the_argument(tmp_path):
+def test_bad_path_and_ragged_arrays_name_the_argument(tmp_path):
     with pytest.raises(ValueError, match="^path: expected a file path"):
         load_arrays(None, KIND)
     with pytest.raises(ValueError, match=r"^arrays\['x'\]: cannot be converted"):

@@ -7,8 +7,9 @@ import pytest
 from scipy import ndimage
 from scipy.ndimage import binary_erosion, gaussian_filter
 
-from hog_jax.phase_segmentation import (_CHUNK, LogRatio, gradient_phase, object_masks, segment_objects,
-                                       stereo_log_ratio, temporal_log_ratio)
+from hog_jax.video._src.phase_segmentation import CHUNK
+from hog_jax.video import (LogRatio, gradient_phase, object_masks, segment_objects, stereo_log_ratio,
+    temporal_log_ratio)
 
 H, W, T = 48, 64, 4
 HALF = (10, 11)
@@ -226,7 +227,7 @@ def test_segment_objects_composes_the_pieces(scene):
 
 @pytest.mark.parametrize("crop_margin", [None, 8])
 def test_opencv_peer_finds_the_object_on_the_same_windows(scene, crop_margin):
-    """The issue-19 peer (StereoSGBM + DIS flow, the same selection as ours) on the synthetic pair,
+    """The OpenCV object peer (StereoSGBM + DIS flow, the same selection as ours) on the synthetic pair,
     on the full frames and on crops: its mask lies on the object (the scene's object is nearer and
     moves with the hand)."""
     from experiments.bench.object_peer import peer_object_masks
@@ -327,7 +328,7 @@ def test_crop_phase_equals_the_full_frame_phase_at_the_border_and_inside(shape, 
     the windows of `gradient_phase` of the whole frame, NaN outside the image, for windows over a
     corner, an edge, partly and wholly outside the image and near its centre; (5, 7) with a kernel
     of radius 8 needs the symmetric padding reflected more than once."""
-    from hog_jax._phase import crop_phase, gaussian_kernel
+    from hog_jax.video import crop_phase, gaussian_kernel
 
     image = gaussian_filter(np.random.default_rng(1).uniform(0, 255, shape), 0.7).astype(np.float32)
     full = np.asarray(gradient_phase(image, blur))
@@ -379,7 +380,7 @@ def test_segment_objects_in_chunks_of_frames(scene):
     chunks): over more frames than a chunk, not a multiple of it, the cues are still those of the
     full-frame pieces, and a frame's values do not depend on how many frames come with it."""
     left, right, hand_l, hand_r, *_ = scene
-    order = np.arange(_CHUNK + 3) % T  # the scene's frames again and again: 2 chunks, the second padded
+    order = np.arange(CHUNK + 3) % T  # the scene's frames again and again: 2 chunks, the second padded
     left, right, hand_l, hand_r = left[order], right[order], hand_l[order], hand_r[order]
     key = jax.random.key(11)
 

@@ -1,5 +1,5 @@
-"""Issue 17 (phmm_jax cases 1-8): bad input and degenerate data are named, never a NaN model or a
-crash deep inside. X, cfg, h and G as in the issue: X (3, 8, 2), two states of 1-4 steps, G two
+"""phmm_jax on bad input and degenerate data: the problem is named, never a NaN model or a
+crash deep inside. The fixture's X, cfg, h and G: X (3, 8, 2), two states of 1-4 steps, G two
 grid corners of (2, 8, 2) sequences. The promise of every public function, over drawn inputs, is
 tests/test_phmm_properties.py.
 """
@@ -23,7 +23,7 @@ def _hmm_file(path, hmm, config=None, **arrays):
 
 
 @pytest.fixture(scope="module")
-def issue17():
+def fitted():
     rng = np.random.default_rng(0)
     X = rng.normal(size=(3, 8, 2))
     G = rng.normal(size=(2, 2, 8, 2))
@@ -34,8 +34,8 @@ def issue17():
     return X, G, cfg, options, h, ph
 
 
-def test_issue17_case1_singular_covariance_without_floor_is_rejected(issue17):
-    X, G, cfg, options, _, _ = issue17
+def test_singular_covariance_without_floor_is_rejected(fitted):
+    X, G, cfg, options, _, _ = fitted
     no_floor = options.replace(reg_covar=0.0)
     zero_feature, one_feature = X.copy(), X.copy()
     zero_feature[..., 0] = 0.0
@@ -58,8 +58,8 @@ def test_issue17_case1_singular_covariance_without_floor_is_rejected(issue17):
         assert np.all(np.isfinite(np.asarray(P.log_likelihood(model, X))))
 
 
-def test_issue17_case2_values_that_overflow_inside_are_rejected(issue17):
-    X, G, cfg, options, h, ph = issue17
+def test_values_that_overflow_inside_are_rejected(fitted):
+    X, G, cfg, options, h, ph = fitted
     for f in (P.log_likelihood, P.posteriors, P.messages, P.viterbi):
         with pytest.raises(ValueError, match="^X: the data lie too far from the model's means for float32"):
             f(h, X * 1e20)
@@ -89,8 +89,8 @@ def test_issue17_case2_values_that_overflow_inside_are_rejected(issue17):
     assert np.all(np.isfinite(np.asarray(P.synthesize(ph, [1e30], length=5))))
 
 
-def test_issue17_case3_recognize_rejects_bad_steps(issue17):
-    _, G, _, _, _, ph = issue17
+def test_recognize_rejects_bad_steps(fitted):
+    _, G, _, _, _, ph = fitted
     bad = {"n_steps": (0, -1, 2.0), "face_steps": (-1, 2.0, "1"),
            "epsilon": (-0.1, float("nan")), "lattice_points": (0,)}
     for name, values in bad.items():
@@ -102,8 +102,8 @@ def test_issue17_case3_recognize_rejects_bad_steps(issue17):
     assert np.all(np.isfinite(np.asarray(rec.phi))) and np.all(np.isfinite(np.asarray(rec.loglik)))
 
 
-def test_issue17_case4_synthesize_one_state(issue17):
-    _, G, _, options, _, _ = issue17
+def test_synthesize_with_one_state_repeats_its_mean(fitted):
+    _, G, _, options, _, _ = fitted
     one = P.fit_phmm(list(G), (2,), P.HMMConfig(n_states=1, max_duration=8), options=options)
     movement = np.asarray(P.synthesize(one, [0.25], length=7))
     chex.assert_shape(movement, (7, 2))
@@ -112,8 +112,8 @@ def test_issue17_case4_synthesize_one_state(issue17):
     chex.assert_shape(P.synthesize(one, [[0.0], [1.0], [0.5]], length=4), (3, 4, 2))
 
 
-def test_issue17_case5_load_checks_the_contents(tmp_path, issue17):
-    _, _, _, _, h, ph = issue17
+def test_load_checks_the_contents(tmp_path, fitted):
+    _, _, _, _, h, ph = fitted
     means = np.asarray(h.means).copy()
     means[0, 0] = np.nan
     not_pd = np.asarray(h.covariances).copy()
@@ -140,8 +140,8 @@ def test_issue17_case5_load_checks_the_contents(tmp_path, issue17):
     chex.assert_trees_all_close(P.load(P.save(tmp_path / "good", ph)), ph, rtol=0, atol=0)
 
 
-def test_issue17_case6_degenerate_grids_and_iterations_are_rejected(issue17):
-    X, G, cfg, options, _, _ = issue17
+def test_degenerate_grids_and_iterations_are_rejected(fitted):
+    X, G, cfg, options, _, _ = fitted
     for grid in ((), [], (1,), (2, 0)):
         with pytest.raises(ValueError, match="^grid_shape:"):
             P.fit_phmm(list(G), grid, cfg, options=options)
@@ -156,8 +156,8 @@ def test_issue17_case6_degenerate_grids_and_iterations_are_rejected(issue17):
     np.testing.assert_array_equal(np.asarray(same.local.means[0]), np.asarray(same.local.means[1]))
 
 
-def test_issue17_case7_wrong_types_are_named(issue17):
-    X, G, cfg, options, h, ph = issue17
+def test_wrong_types_are_named(fitted):
+    X, G, cfg, options, h, ph = fitted
     cases = [
         ("config", lambda: P.fit_hmm(X, config=None, options=options)),
         ("config", lambda: P.fit_hmm_gradient(X, config="full", options=options)),
@@ -181,8 +181,8 @@ def test_issue17_case7_wrong_types_are_named(issue17):
             call()
 
 
-def test_issue17_case8_save_and_load_take_the_same_path(tmp_path, monkeypatch, issue17):
-    _, _, _, _, h, ph = issue17
+def test_save_and_load_take_the_same_path(tmp_path, monkeypatch, fitted):
+    _, _, _, _, h, ph = fitted
     monkeypatch.chdir(tmp_path)
     for name, model in (("model", h), ("nested/phmm", ph), ("explicit.npz", h)):
         written = P.save(name, model)

@@ -7,9 +7,9 @@ import pytest
 from scipy.special import logsumexp
 
 import phmm_jax as P
-from phmm_jax import _batched, inference
-from phmm_jax.emissions import gaussian_log_density, gaussian_log_density_columns, stacked_log_density_columns
-from phmm_jax.model import transitions_from_durations
+from phmm_jax._src import batched as _batched, inference as inference
+from phmm_jax import gaussian_log_density, gaussian_log_density_columns, stacked_log_density_columns
+from phmm_jax import transitions_from_durations
 from tests.phmm_reference import brute_force, dense_forward_backward, emission_table
 
 STRUCTURES = [

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import phmm_jax as P
-from phmm_jax.emissions import gaussian_log_density
+from phmm_jax import gaussian_log_density
 
 
 @pytest.mark.parametrize("sigma", [0.01, 0.05, 0.2])

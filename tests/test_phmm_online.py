@@ -1,4 +1,4 @@
-"""Online (streaming) recognition, phmm_jax.online (issue 21): the streaming forward pass equals the
+"""Online (streaming) recognition, phmm_jax.online: the streaming forward pass equals the
 batch one at every prefix (and a float64 numpy forward), any split of a stream into steps gives the
 same state, and the online recogniser finds two movements in a synthetic stream with the right class
 and φ. Tiny models (few states, short sequences) so that the module compiles each function once."""

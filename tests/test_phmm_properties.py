@@ -1,4 +1,4 @@
-"""Property-based tests of phmm_jax's public functions (issue 17): each states its promise,
+"""Property-based tests of phmm_jax's public functions: each states its promise,
 "valid in -> finite, correctly shaped out; invalid in -> ValueError naming the argument".
 
 Shapes are fixed across examples (X (4, 8, 2), two states of 1-4 steps, PHMMs of a 2-corner grid)

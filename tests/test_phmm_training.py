@@ -11,9 +11,9 @@ import pytest
 
 import phmm_jax as P
 from lfd_common import pad_sequences, save_arrays
-from phmm_jax.em import em_step
-from phmm_jax.parametric import batch_phmm_log_likelihood
-from phmm_jax.synthesis import hermite_spline, multilinear_map
+from phmm_jax import em_step
+from phmm_jax import batch_phmm_log_likelihood
+from phmm_jax import hermite_spline, multilinear_map
 
 CORNERS = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [0.0, 3.0]])
 
@@ -137,8 +137,8 @@ def test_recognize_finds_class_and_parameter(walk_phmm):
 
 
 def test_recognize_reaches_the_maximum_of_a_dense_scan():
-    """d = 2: the search's φ scores within 1 nat of the best of a 41 x 41 scan of [−ε, 1 + ε]² (issue 21's
-    criterion), and its reported log-likelihood is the model's at that φ."""
+    """d = 2: the search's φ scores within 1 nat of the best of a 41 x 41 scan of [−ε, 1 + ε]² (the
+    tolerance the search is held to), and its reported log-likelihood is the model's at that φ."""
     rng = np.random.default_rng(5)
 
     def walks(phi, n):  # out to (3 + φ₂, 3 φ₁) and back, time-warped

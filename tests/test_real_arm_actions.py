@@ -1,5 +1,5 @@
 """Smoke tests of `experiments.real_arm_actions` on small folders laid out like UE-ADL, written here
-(simulated joint angles and Nexus marker files): a leave-one-person-out run writes the issue's
+(simulated joint angles and Nexus marker files): a leave-one-person-out run writes the study's
 metrics, report and figures; `--train/--test` folders make one fold; settings are chosen without
 the held-out person; an absent folder is a clean skip."""
 import json

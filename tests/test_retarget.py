@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from experiments.data import tabletop as tt
-from phmm_jax.retarget import DEFAULT_BASE_FRAME, MARKER_ORDER, retarget, solve_arm
-from sim import robot_arm
+from phmm_jax import DEFAULT_BASE_FRAME, MARKER_ORDER, retarget, solve_arm
+from sim._src import robot_arm as robot_arm
 
 A, B = robot_arm.UPPER_ARM_M, robot_arm.FOREARM_M
 
@@ -158,7 +158,7 @@ def _pose(draw_unit, length, kind):
 @settings(max_examples=12, deadline=None)
 @given(seed=st.integers(0, 2**16), length=st.floats(0.02, 0.3),
        kind=st.sampled_from(["free", "straight", "hand at shoulder", "elbow at shoulder"]))
-def test_issue17_solve_arm_singular_poses_are_finite_and_flagged(seed, length, kind):
+def test_solve_arm_singular_poses_are_finite_and_flagged(seed, length, kind):
     rng = np.random.default_rng(seed)
 
     def draw_unit(_):
@@ -176,7 +176,7 @@ def test_issue17_solve_arm_singular_poses_are_finite_and_flagged(seed, length, k
         np.testing.assert_allclose(grasp, np.asarray(r), atol=1e-4)
 
 
-def test_issue17_retarget_flags_a_straight_arm_and_rejects_a_zero_length_arm(movements):
+def test_retarget_flags_a_straight_arm_and_rejects_a_zero_length_arm(movements):
     straight = movements[:1].copy()
     wrist_dir = straight[0, :, 4:7].mean(1) - straight[0, :, 1]
     straight[0, :, 2] = straight[0, :, 1] + 0.4 * wrist_dir  # elbow on the shoulder-hand line

@@ -5,10 +5,11 @@ import pytest
 from mujoco import mjx
 from scipy.spatial.transform import Rotation
 
-from sim.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, ROBOT_GRASPS
-from sim.grasp_rollout import initial_qpos, object_gravcomp
-from sim.grasp_strategy import TrialParams, _wrist_angles
-from sim.robot_hands import HAND_NAMES, grasp_model, hand_joint_qpos, hand_spec, preshape
+from sim.grasping import GRASP_CLASSES, GRASP_OBJECTS, ROBOT_GRASPS
+from sim.grasping import initial_qpos, object_gravcomp
+from sim.grasping import TrialParams
+from sim._src.grasp_strategy import wrist_angles
+from sim.hands import HAND_NAMES, grasp_model, hand_joint_qpos, hand_spec, preshape
 
 
 @pytest.fixture(scope="module", params=HAND_NAMES)
@@ -34,13 +35,13 @@ def test_every_collision_pair_is_supported_by_mjx_jax(scene):
 
 
 def test_wrist_angles_reproduce_the_hand_rotation(scene):
-    """Hinges Rz(a) Rx(b) Ry(c) set from `_wrist_angles` give the rotation asked for (FK vs scipy)."""
+    """Hinges Rz(a) Rx(b) Ry(c) set from `wrist_angles` give the rotation asked for (FK vs scipy)."""
     _, model, layout = scene
     rots = Rotation.random(5, random_state=0).as_matrix()
     rots = rots[np.abs(rots[:, 2, 1]) < 0.9]           # away from the chain's singularity (hand y vertical)
     data = mujoco.MjData(model)
     hand_body = model.body("hand").id
-    for rot, angles in zip(rots, _wrist_angles(rots)):
+    for rot, angles in zip(rots, wrist_angles(rots)):
         data.qpos[layout.wrist_qpos] = [0.1, -0.2, 0.3, *angles]
         mujoco.mj_kinematics(model, data)
         np.testing.assert_allclose(data.xmat[hand_body].reshape(3, 3), rot, atol=1e-9)
@@ -87,7 +88,7 @@ def test_touch_sensor_feels_an_object_on_the_palm_only(scene):
     hand, model, layout = scene
     rot = np.eye(3)                      # palm normal +z: the palm faces up
     fingers = preshape(hand, ROBOT_GRASPS[hand][0])[0][None]
-    params = TrialParams(goal=np.zeros((1, 3)), approach=np.array([[0, 0, 1.0]]), wrist=_wrist_angles(rot[None]),
+    params = TrialParams(goal=np.zeros((1, 3)), approach=np.array([[0, 0, 1.0]]), wrist=wrist_angles(rot[None]),
                          start=np.array([[0, 0, 0.3]]), standoff=np.zeros(1), volar=np.ones(1, bool),
                          tactile=np.ones(1, bool), open_=fingers, closed=fingers, obj=np.array([4]),
                          hold_s=np.ones(1))

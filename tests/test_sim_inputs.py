@@ -37,7 +37,7 @@ def _raises(match, fn, *args, **kwargs):
         fn(*args, **kwargs)
 
 
-def test_issue17_case21_mjx_entry_points_check_their_input(scene):
+def test_mjx_entry_points_check_their_input(scene):
     model, mjx_model, one, worlds = scene
     nq = model.nq
     good = np.tile(model.qpos0, (2, 1))

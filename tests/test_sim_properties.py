@@ -1,4 +1,4 @@
-"""Property tests (hypothesis) of sim's public promise (issue 17), beside `tests/test_sim_inputs.py`
+"""Property tests (hypothesis) of sim's public promise, beside `tests/test_sim_inputs.py`
 (the MJX entry points): valid in -> a scene MuJoCo compiles / an image of the asked size; invalid in
 -> `ValueError` whose message starts with the argument's name. One compiled scene, small images."""
 import math

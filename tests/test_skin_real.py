@@ -1,4 +1,4 @@
-"""experiments.skin_real (issue 23): metric functions against sklearn, scipy and brute force, the YCrCb
+"""experiments.skin_real: metric functions against sklearn, scipy and brute force, the YCrCb
 rule against OpenCV, padded batches against per-photo filtering and `hog_jax.segment`, and a smoke
 run of the study on three real photos (skipped without ../shared/data)."""
 import json

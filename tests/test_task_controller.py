@@ -1,4 +1,4 @@
-"""The robot task controller (`sim.task_controller`, issue 21): one pick-and-place that succeeds (Barrett
+"""The robot task controller (`sim.task_controller`): one pick-and-place that succeeds (Barrett
 hand, Large Diameter grasp of the bottle, checked independently from the final MuJoCo state), an
 unreachable place flagged without an exception, bad input rejected naming the argument, and the
 retargeting of a demonstrated approach (`retarget_path`) against its promises.
@@ -10,9 +10,9 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 
 from sim import TaskResult, TaskSpec, run_task
-from sim.grasp_objects import GRASP_OBJECTS
-from sim.task_controller import PLACE_TOL_M, STAGES
-from sim.task_motion import retarget_path
+from sim.grasping import GRASP_OBJECTS
+from sim.robot import PLACE_TOL_M, STAGES
+from sim.robot import retarget_path
 
 OBJECT_XY = [(0.0, -0.40)]
 PLACE = (0.20, -0.40)
@@ -112,8 +112,8 @@ def test_retarget_path_ends_at_the_robot_s_poses_and_keeps_the_shape(points, sta
 def test_others_moved_measures_how_far_the_other_objects_were_pushed():
     import mujoco
 
-    from sim.task_motion import TaskSim
-    from sim.task_plan import task_scene
+    from sim.robot import TaskSim
+    from sim.robot import task_scene
 
     spec = TaskSpec(objects=(1, 9), object_xy=[(0.0, -0.40), (0.2, -0.45)], target=0, grasp=1, place_xy=PLACE,
                     hand="barrett")
@@ -132,8 +132,8 @@ def test_the_plan_tilts_the_approach_where_no_level_one_is_clean(monkeypatch):
     # a validation scene of the imitation loop (seed 7000, demonstration 37): the Abducted Thumb's level side
     # approach to the cup stand-in (object 1) puts the arm into a neighbour or the wrist into the table at
     # every yaw; tilted 15 degrees downwards it does not
-    import sim.task_plan as tp
-    from sim.manipulator_ik import forward_kinematics, solve_ik
+    import sim._src.task_plan as tp
+    from sim.robot import forward_kinematics, solve_ik
 
     spec = tp.check_spec(TaskSpec(objects=(1, 4, 10), object_xy=[(-0.438, -0.295), (-0.29, -0.473), (0.071, -0.444)],
                                   target=1, grasp=4, place_xy=(-0.1, -0.3), hand="barrett"))

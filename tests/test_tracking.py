@@ -13,10 +13,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
-from hog_jax.blobs import connected_blobs, ellipse_axes, mask_ellipse
-from hog_jax.stereo import StereoCamera, camera_matrices, project, triangulate
-from hog_jax.tracking import alpha_beta_gains, track
-from hog_jax.tracks import FACE, HAND, hand_face_positions
+from hog_jax.video import connected_blobs, ellipse_axes, mask_ellipse
+from hog_jax.video import StereoCamera, camera_matrices, project, triangulate
+from hog_jax.video import alpha_beta_gains, track
+from hog_jax.video import FACE, HAND, hand_face_positions
 
 PROP = settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 T, H, W, K, R = 24, 48, 64, 4, 5
@@ -214,7 +214,7 @@ def test_connected_blobs_agree_with_opencv(monkeypatch):
     np.testing.assert_allclose(b.cov[0, 0], np.diag([np.mean(cols**2), np.mean(rows**2)]), atol=1e-4)
     assert list(b.n_components) == [n - 1, 0] and not b.valid[1].any()
     assert b.labels[0].max() == 2 and (b.labels[0] == 1).sum() == 50
-    monkeypatch.setattr("hog_jax.blobs._CHUNK_PIXELS", 24 * 32)  # one frame per OpenCV call: the same blobs
+    monkeypatch.setattr("hog_jax.video._src.blobs._CHUNK_PIXELS", 24 * 32)  # one frame per OpenCV call: the same blobs
     chunked = host(connected_blobs(masks, max_blobs=2, min_area=2))
     for got, want in zip(chunked, b):
         np.testing.assert_array_equal(got, want)

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings as hsettings, strategies as st
 
 from experiments.data import video
-from sim.person_scene import StereoRig
+from sim.scenes import StereoRig
 
 TINY = video.VideoSettings(seed=1, n_persons=1, n_repetitions=1, width=80, height=60, fps=2.0, n_empty=2,
                            entry_s=1.0, settle_s=0.5, idle_s=0.5, oac_duration_s=2.0, n_scripts=0)

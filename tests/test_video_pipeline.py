@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import hog_jax
-from hog_jax.segment import gmm_log_prob
+from hog_jax import gmm_log_prob
 from hog_jax.video import BACKGROUND, OBJECT, PERSON, SKIN, follow_light
 
 H, W, T, START = 24, 32, 16, 10
@@ -41,22 +41,22 @@ def _scene(seed=0, leaves=False):
 def fitted():
     frames, labels = _scene()
     rng = np.random.default_rng(1)
-    skin = hog_jax.fit_skin(jax.random.key(0), np.clip(SKIN_RGB + rng.normal(0, 4, (400, 3)), 0, 255))
-    models, fit = hog_jax.fit_video_models(jax.random.key(1), skin, frames, START,
-                                           hog_jax.VideoOptions(person_frames=4), candidates=(1, 2))
+    skin = hog_jax.video.fit_skin(jax.random.key(0), np.clip(SKIN_RGB + rng.normal(0, 4, (400, 3)), 0, 255))
+    models, fit = hog_jax.video.fit_video_models(jax.random.key(1), skin, frames, START,
+                                           hog_jax.video.VideoOptions(person_frames=4), candidates=(1, 2))
     return frames, labels, models, fit
 
 
 def test_segment_recording_recovers_person_and_skin(fitted):
     frames, labels, models, _ = fitted
-    seg = hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(person_frames=4))
+    seg = hog_jax.video.segment_recording(models, frames, START, hog_jax.video.VideoOptions(person_frames=4))
     assert seg.labels.shape == (T, H, W) and seg.foreground.shape == (T, H, W)
     ours = np.asarray(seg.labels)[START:]
     truth = labels[START:]
     for region in (BACKGROUND, PERSON, SKIN):
         inter = ((ours == region) & (truth == region)).sum()
         union = ((ours == region) | (truth == region)).sum()
-        assert inter / union > 0.8, (hog_jax.REGIONS[region], inter / union)
+        assert inter / union > 0.8, (hog_jax.video.REGIONS[region], inter / union)
     assert not (ours == OBJECT).any()  # nothing moves that the models do not explain
     assert np.all(np.asarray(seg.iterations)[:START] == 0) and np.all(np.asarray(seg.iterations)[START:] >= 1)
 
@@ -69,8 +69,8 @@ def test_background_is_not_learnt_where_the_previous_frame_is_not_background(fit
     TR: `follow_light` off)."""
     _, _, models, _ = fitted
     frames, _ = _scene(leaves=True)  # the same frames before START, so the same colour models
-    options = hog_jax.VideoOptions(person_frames=4, follow_light=False)
-    seg = hog_jax.segment_recording(models, frames, START, options)
+    options = hog_jax.video.VideoOptions(person_frames=4, follow_light=False)
+    seg = hog_jax.video.segment_recording(models, frames, START, options)
     labels, fg = np.asarray(seg.labels), np.asarray(seg.foreground)
     unit = jnp.asarray(frames, jnp.float32) / 255.0
     density = [np.asarray(gmm_log_prob(g, unit)) for g in (models.background, models.person, models.skin)]
@@ -81,7 +81,7 @@ def test_background_is_not_learnt_where_the_previous_frame_is_not_background(fit
     held = claimed & coloured
     held[0], held[1:START] = False, fg[:START - 1]  # before START: what moved in the previous frame
     assert held[START + 1:].any() and (claimed & ~held)[START + 1:].any()
-    _, alone = hog_jax.run_background(frames, held, options=options.background)
+    _, alone = hog_jax.video.run_background(frames, held, options=options.background)
     np.testing.assert_array_equal(np.asarray(alone), fg)
 
 
@@ -129,10 +129,10 @@ def test_held_pixels_follow_the_light(fitted):
     frames = np.repeat(np.broadcast_to(base, (H, W, 3))[None], n, axis=0) * (1 - 0.005 * np.arange(n))[:, None, None, None]
     frames[START:leave, 4:22, 12:24] = PERSON_RGB
     frames = np.clip(frames + rng.normal(0, 2, frames.shape), 0, 255).astype(np.uint8)
-    background = hog_jax.BackgroundOptions(alpha=0.2)
+    background = hog_jax.video.BackgroundOptions(alpha=0.2)
     left = {}
     for follow in (True, False):
-        seg = hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(follow_light=follow,
+        seg = hog_jax.video.segment_recording(models, frames, START, hog_jax.video.VideoOptions(follow_light=follow,
                                                                                     background=background))
         left[follow] = np.asarray(seg.foreground)[leave, 4:22, 12:24].mean()
         still = np.asarray(seg.foreground)[leave, :, :10].mean()  # never covered: learnt all along
@@ -144,25 +144,25 @@ def test_region_scores_and_bad_input(fitted):
     frames, _, models, _ = fitted
     fg = np.zeros(frames.shape[:3], bool)
     fg[:, :4, :4] = True
-    scores = np.asarray(hog_jax.region_scores(models, frames, fg))
+    scores = np.asarray(hog_jax.video.region_scores(models, frames, fg))
     assert scores.shape == (T, 4, H, W) and np.all(np.isfinite(scores))
     # a moving pixel loses motion_penalty of its background score and may become an object
-    still = np.asarray(hog_jax.region_scores(models, frames, np.zeros_like(fg)))
+    still = np.asarray(hog_jax.video.region_scores(models, frames, np.zeros_like(fg)))
     np.testing.assert_allclose(still[:, BACKGROUND] - scores[:, BACKGROUND], 4.0 * fg, atol=1e-4)
     assert np.all(scores[:, OBJECT][fg] == 0.0) and np.all(scores[:, OBJECT][~fg] < -1e3)
     with pytest.raises(ValueError, match="frames"):
-        hog_jax.segment_recording(models, frames[..., :2], START)
+        hog_jax.video.segment_recording(models, frames[..., :2], START)
     with pytest.raises(ValueError, match="frames"):
-        hog_jax.segment_recording(models, np.full_like(frames, np.nan, dtype=float), START)
+        hog_jax.video.segment_recording(models, np.full_like(frames, np.nan, dtype=float), START)
     with pytest.raises(ValueError, match="start"):
-        hog_jax.segment_recording(models, frames, T)
+        hog_jax.video.segment_recording(models, frames, T)
     with pytest.raises(ValueError, match="follow_light"):
-        hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(follow_light=1))
+        hog_jax.video.segment_recording(models, frames, START, hog_jax.video.VideoOptions(follow_light=1))
     with pytest.raises(ValueError, match="coarse_scale"):
-        hog_jax.segment_recording(models, frames, START, hog_jax.VideoOptions(coarse_scale="no"))
+        hog_jax.video.segment_recording(models, frames, START, hog_jax.video.VideoOptions(coarse_scale="no"))
     with pytest.raises(ValueError, match="foreground"):
-        hog_jax.region_scores(models, frames, fg[:-1])
+        hog_jax.video.region_scores(models, frames, fg[:-1])
     with pytest.raises(ValueError, match="right"):
-        hog_jax.segment_stereo(models, frames, frames[:, :-1], START, hog_jax.StereoCamera(30.0, 0.12, W, H))
+        hog_jax.video.segment_stereo(models, frames, frames[:, :-1], START, hog_jax.video.StereoCamera(30.0, 0.12, W, H))
     with pytest.raises(ValueError, match="start"):
-        hog_jax.fit_video_models(jax.random.key(0), models.skin, frames, 3, hog_jax.VideoOptions(person_frames=4))
+        hog_jax.video.fit_video_models(jax.random.key(0), models.skin, frames, 3, hog_jax.video.VideoOptions(person_frames=4))

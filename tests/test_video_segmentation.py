@@ -1,5 +1,5 @@
-"""experiments.video_segmentation: the quick preset end to end on one clip (the smoke test of issue 18):
-every metric of the issue written, finite where it must be, the figures and the overlay video made,
+"""experiments.video_segmentation: the quick preset end to end on one clip (a smoke test):
+every metric the study reports written, finite where it must be, the figures and the overlay video made,
 and the real-video part skipped (saying so) when its folder is absent."""
 import json
 import math

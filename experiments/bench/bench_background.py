@@ -1,4 +1,4 @@
-"""Background model: hog_jax.run_background (Stauffer-Grimson, TR §3.5) beside OpenCV's
+"""Background model: hog_jax.video.run_background (Stauffer-Grimson, TR §3.5) beside OpenCV's
 `createBackgroundSubtractorMOG2` (and `createBackgroundSubtractorKNN` for F1), same frames, same run.
 
     python -m experiments.bench.bench_background --preset quick --out runs/bench_background
@@ -130,7 +130,7 @@ def f1_stage(cfg: BenchConfig, frames, labels, roi) -> dict:
     import cv2
 
     from hog_jax import median3
-    from hog_jax.background import BackgroundOptions, run_background
+    from hog_jax.video import BackgroundOptions, run_background
 
     def ours(**options):
         return lambda: run_background(frames, options=BackgroundOptions(**options))[1]
@@ -171,7 +171,7 @@ def _mog2_loop(frames_bgr: np.ndarray):
 
 def speed_stage(cfg: BenchConfig, frames) -> dict:
     """Frames/s of ours (one video, and `batch` videos at once) and of MOG2's apply loop."""
-    from hog_jax.background import run_background, run_background_batch
+    from hog_jax.video import run_background, run_background_batch
 
     one = np.ascontiguousarray(frames[:cfg.fps_frames])
     starts = np.linspace(0, len(frames) - cfg.batch_frames, cfg.batch).astype(int)  # 16 windows of the video

@@ -41,10 +41,10 @@ from experiments.bench.timing import Timing, time_call, time_interleaved
 from experiments.config import markdown_table, parse_config
 from experiments.data.reaching import movements_at, raster_targets
 from lfd_common import enable_compilation_cache
-from phmm_jax.api import batch_log_likelihood, batch_posteriors
-from phmm_jax.em import em_step
-from phmm_jax.emissions import gaussian_log_density
-from phmm_jax.parametric import _search
+from phmm_jax import batch_log_likelihood, batch_posteriors
+from phmm_jax import em_step
+from phmm_jax import gaussian_log_density
+from phmm_jax import search_parameters
 
 
 @dataclasses.dataclass(frozen=True)
@@ -216,7 +216,7 @@ def dense_search_logliks(phmms, X) -> np.ndarray:
     30 quasi-Newton steps and the grid-line probe with 10 more (the reference of `search_gap`)."""
     X = jnp.asarray(X, jnp.float32)
     lengths = jnp.full(X.shape[0], X.shape[1], jnp.int32)
-    return np.stack([np.asarray(_search(p, X, lengths, 0.1, 30, 21, 10)[1]) for p in phmms], axis=1)
+    return np.stack([np.asarray(search_parameters(p, X, lengths, 0.1, 30, 21, 10)[1]) for p in phmms], axis=1)
 
 
 def search_gap(loglik, dense: np.ndarray) -> np.ndarray:

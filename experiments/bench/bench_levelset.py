@@ -1,4 +1,4 @@
-"""Two-region level sets: hog_jax.chan_vese_segment beside scikit-image's `chan_vese` and
+"""Two-region level sets: hog_jax.video.chan_vese_segment beside scikit-image's `chan_vese` and
 `morphological_chan_vese`, same grey 240 x 320 frames, IoU against ground truth in the same run.
 
     python -m experiments.bench.bench_levelset --preset quick --out runs/bench_levelset
@@ -163,8 +163,8 @@ def main(argv=None):
     cfg, run = parse_config(BenchConfig, PRESETS, name="bench.bench_levelset", argv=argv)
     import jax
 
-    import hog_jax.levelset as ls
-    from hog_jax.levelset_grey import chan_vese_segment
+    import hog_jax.video as ls
+    from hog_jax.video import chan_vese_segment
 
     grey, truth, source = load_frames(cfg.data_dir, cfg.n_validation, cfg.n_frames, cfg.seed)
     n = grey.shape[0]

@@ -32,8 +32,8 @@ import sim
 from experiments.bench.timing import time_call
 from experiments.config import markdown_table, parse_config
 from lfd_common import enable_compilation_cache
-from sim.grasp_rollout import SUBSTEPS, rollout_grasps, warp_status
-from sim.grasp_strategy import n_control_steps
+from sim.grasping import SUBSTEPS, rollout_grasps, warp_status
+from sim.grasping import n_control_steps
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,8 +62,8 @@ PRESETS = {"quick": {"n_trials": 96, "serial_trials": 6, "sizes": (16, 96), "rep
 
 def bench_trials(hand: str, n: int, seed: int):
     """n trials of `hand`: grasp classes, the sweep's conditions and seeds cycled. (params, object_start)."""
-    from sim.grasp_objects import GRASP_CLASSES
-    from sim.grasp_strategy import plan_trials
+    from sim.grasping import GRASP_CLASSES
+    from sim.grasping import plan_trials
 
     k = np.arange(n)
     grasps = np.asarray(GRASP_CLASSES)[k % len(GRASP_CLASSES)]
@@ -81,9 +81,9 @@ def serial_rollout(hand: str, params, object_start) -> None:
     import jax.numpy as jnp
     import mujoco
 
-    from sim.grasp_rollout import SUBSTEPS, first_readings, initial_qpos, object_gravcomp
-    from sim.grasp_strategy import DONE, TrialParams, controller_step, initial_state, n_control_steps
-    from sim.robot_hands import grasp_model
+    from sim.grasping import SUBSTEPS, first_readings, initial_qpos, object_gravcomp
+    from sim.grasping import DONE, TrialParams, controller_step, initial_state, n_control_steps
+    from sim.hands import grasp_model
 
     model, layout = grasp_model(hand)
     control = jax.jit(lambda s, d, p: controller_step(s, d, p, layout))
@@ -111,11 +111,11 @@ def controller_only(hand: str, params) -> float:
     import jax
     import jax.numpy as jnp
 
-    from sim.grasp_rollout import _jitted_controller, _scene
-    from sim.grasp_strategy import initial_state, n_control_steps
+    from sim.grasping import jitted_controller, grasp_scene
+    from sim.grasping import initial_state, n_control_steps
 
-    model, layout = _scene(hand)
-    control = _jitted_controller(hand)
+    model, layout = grasp_scene(hand)
+    control = jitted_controller(hand)
     sensors = np.zeros((len(params.goal), model.nsensordata), np.float32)
     state0 = initial_state(params, layout.n_links)
 

@@ -1,4 +1,4 @@
-"""Object in the hand (LfD 2009 §III-B): `hog_jax.segment_objects` (gradient phase, eqs. 1-4, Fig. 3h-j)
+"""Object in the hand (LfD 2009 §III-B): `hog_jax.video.segment_objects` (gradient phase, eqs. 1-4, Fig. 3h-j)
 beside the OpenCV peer (`object_peer`: StereoSGBM disparity + DIS optical flow, then the same
 selection), on the same windows of one rendered stereo clip, object-mask IoU in the same run.
 
@@ -8,7 +8,7 @@ Input, the same for all: grey uint8 stereo frames (T, H, W) of one clip of `expe
 (validation seed 1, so no test recording is looked at), the true right-hand centre in each view and
 the true skin pixels (the hand's pixels removed), a (2 h + 1)^2 window around the hand; frames where
 the hand is visible in both views. Output, the same for all: (T, h, w) masks and (T,) found flags on
-the host, from the same selection (`hog_jax.object_masks`). What each computes before it:
+the host, from the same selection (`hog_jax.video.object_masks`). What each computes before it:
 - ours, one call for all frames (vmapped): the blurred gradient phase only on crops around the
   windows its cues read (the full frames' values: the left window at the hand in frames t and
   t - 1, the left window of t - 1 at the hand of t, the right window widened by `max_offset` = h
@@ -97,7 +97,7 @@ def main(argv=None):
     sigma = cfg.sigma * scale
 
     def ours():
-        seg = hog_jax.segment_objects(jax.random.key(cfg.seed), gl, gr, hand_l, hand_r, skin, half, sigma,
+        seg = hog_jax.video.segment_objects(jax.random.key(cfg.seed), gl, gr, hand_l, hand_r, skin, half, sigma,
                                       max_offset=half[1], blur_sigma=2.0 * scale)
         return np.asarray(seg.masks), np.asarray(seg.found)
 

@@ -77,8 +77,8 @@ def _entry_points(cfg: BenchConfig, mesh):
     import hog_jax as H
     import phmm_jax as P
     from experiments.bench.bench_hmm import make_data
-    from hog_jax.background import run_background_batch
-    from hog_jax.levelset import LevelSetOptions, LevelSetStructure, segment_video
+    from hog_jax.video import run_background_batch
+    from hog_jax.video import LevelSetOptions, LevelSetStructure, segment_video
 
     rng = np.random.default_rng(cfg.seed)
     X = make_data(_HMMData(cfg.seed, cfg.hmm_batch, cfg.n_frames)).astype(np.float32)

@@ -2,7 +2,7 @@
 it today with OpenCV: dense disparity (`StereoSGBM`, semi-global matching) and dense optical flow
 (`DISOpticalFlow`); the object is the pixels of the hand's window that move with the hand (flow
 within `flow_tol` px of the hand's displacement) at the hand's depth (disparity within
-`disparity_tol` px of the hand's). The same selection as ours follows (`hog_jax.object_masks`:
+`disparity_tol` px of the hand's). The same selection as ours follows (`hog_jax.video.object_masks`:
 the hand's pixels removed, the nearest large region, holes filled, an opening), so that the two
 differ only in the cues.
 
@@ -25,7 +25,7 @@ import cv2
 import jax.numpy as jnp
 import numpy as np
 
-from hog_jax.phase_segmentation import LogRatio, object_masks
+from hog_jax.video import LogRatio, object_masks
 
 __all__ = ["peer_object_masks", "window"]
 

@@ -31,7 +31,7 @@ import phmm_jax as P
 from experiments.bench.timing import time_call
 from experiments.data.tabletop import raster_targets, resample, sample_subject, simulate
 from lfd_common import enable_compilation_cache
-from phmm_jax.online import _online_step_batch_jit, _online_step_jit
+from phmm_jax import online_step_batch_jit, online_step_jit
 
 ONLINE_FPS = 25.0  # a video tracker's frame rate: the real-time budget of one frame is 40 ms
 ONLINE_STREAMS = (16, 64, 256, 1024)  # vmapped streams timed on one core
@@ -71,7 +71,7 @@ def online_stage(phmms, seed: int, repeats: int) -> dict:
     def live_loop():
         state = P.init_online(rec)
         for x in frames:
-            state, out = _online_step_jit(rec, state, x)
+            state, out = online_step_jit(rec, state, x)
             jax.block_until_ready(out)
         return state.t
 
@@ -133,7 +133,7 @@ def online_core_worker(paths, stream_path, threshold, repeats, n_frames: int = 5
         def loop():
             states = P.init_online(rec, n)
             for x in frames[:n_frames]:
-                states, result = _online_step_batch_jit(rec, states, x)
+                states, result = online_step_batch_jit(rec, states, x)
                 jax.block_until_ready(result)
             return states.t
 

@@ -29,8 +29,8 @@ from experiments.config import markdown_table, progress
 from experiments.grasp_recognition.pieces import hog_features, knn_predict
 from experiments.plotting import plt
 from lfd_common import cache_dir, check_int, enable_compilation_cache, load_arrays, model_path, save_arrays
-from sim.grasp_objects import GRASP_NAMES, check_grasp_class, robot_grasp_for
-from sim.grasp_views import ViewDatabase, view_database
+from sim.grasping import GRASP_NAMES, check_grasp_class, robot_grasp_for
+from sim.grasping import ViewDatabase, view_database
 
 DB_KIND = "experiments.cli.GraspDatabase"
 RENDER_SIZE, CROP_SIZE = 128, 64          # experiments.grasp_recognition.Config's render_size and crop_size

@@ -7,7 +7,7 @@ what moves in the last `VideoOptions.person_frames` (10) of them teaches the per
 (TR §3.4-3.5); and skin pixels (the UCI layout, `experiments.cli.skin`) for the skin GMM. Then
 `fit_video_models` -> `segment_recording` (mono) or `segment_stereo` (with `--right`, a rectified
 pair: also the triangulated hand-minus-face position) -> the skin blobs tracked as face, hand and
-other hand (`hog_jax.track`, the acquisition rules of `hog_jax.hand_face_positions`).
+other hand (`hog_jax.video.track`, the acquisition rules of `hog_jax.video.hand_face_positions`).
 
 Writes overlay.mp4 (labels tinted in `experiments.data.video.LABEL_COLOURS`: person orange, skin
 red, object blue; the tracked face and hand marked), sheet.png (a few overlay frames) and
@@ -30,10 +30,10 @@ from experiments.data.loaders import load_image_folder, load_stereo_videos, load
 from experiments.data.video import LABEL_COLOURS, overlay, write_video
 from experiments.plotting import plt
 from experiments.video_segmentation.plots import truth_coded
-from hog_jax import FACE, HAND
+from hog_jax.video import FACE, HAND
 from lfd_common import check_int, check_real, enable_compilation_cache
 
-SKIN_TARGETS = ("top", "left_of_first", "right_of_first")  # face, hand, other hand: hog_jax.hand_face_positions' default rules
+SKIN_TARGETS = ("top", "left_of_first", "right_of_first")  # face, hand, other hand: hog_jax.video.hand_face_positions' default rules
 MARKED = {FACE: ("face", LABEL_COLOURS[6]), HAND: ("hand", LABEL_COLOURS[5])}
 SHEET_FRAMES = 8
 DEFAULT_FPS = 25.0
@@ -56,7 +56,7 @@ def read_clip(args) -> tuple[np.ndarray, np.ndarray | None, float | None]:
     return left, right, rate
 
 
-def first_segmented_frame(n_frames: int, start: int | None, options: hog_jax.VideoOptions) -> int:
+def first_segmented_frame(n_frames: int, start: int | None, options: hog_jax.video.VideoOptions) -> int:
     """`start`, or a third of the clip (at least person_frames + 1); ValueError for a clip too short."""
     shortest = options.person_frames + 2
     if n_frames < shortest:
@@ -65,25 +65,25 @@ def first_segmented_frame(n_frames: int, start: int | None, options: hog_jax.Vid
     return max(options.person_frames + 1, n_frames // 3) if start is None else start
 
 
-def segment_and_track(args, left, right, start: int, options: hog_jax.VideoOptions):
-    """(labels (T, H, W) in `hog_jax.REGIONS` order, skin `Tracks` of the left view (M = 3), the
+def segment_and_track(args, left, right, start: int, options: hog_jax.video.VideoOptions):
+    """(labels (T, H, W) in `hog_jax.video.REGIONS` order, skin `Tracks` of the left view (M = 3), the
     `HandFacePositions` of a stereo pair or None)."""
     key = jax.random.key(0)
     bar = progress(total=3, desc="skin model")
     skin = video_skin_gmm(args.skin_data)
     bar.update()
     bar.set_description("colour models")
-    models, _ = hog_jax.fit_video_models(key, skin, left, start, options)
+    models, _ = hog_jax.video.fit_video_models(key, skin, left, start, options)
     bar.update()
     bar.set_description("level sets and tracking")
     if right is None:
-        labels = np.asarray(hog_jax.segment_recording(models, left, start, options).labels)
-        blobs = hog_jax.connected_blobs(labels == hog_jax.REGIONS.index("skin"), max_blobs=8, min_area=4)
-        tracks, positions = hog_jax.track(blobs, SKIN_TARGETS, min_init=2), None
+        labels = np.asarray(hog_jax.video.segment_recording(models, left, start, options).labels)
+        blobs = hog_jax.video.connected_blobs(labels == hog_jax.video.REGIONS.index("skin"), max_blobs=8, min_area=4)
+        tracks, positions = hog_jax.video.track(blobs, SKIN_TARGETS, min_init=2), None
     else:
-        camera = hog_jax.StereoCamera(focal_px=args.focal_px, baseline_m=args.baseline_m, width=left.shape[2],
+        camera = hog_jax.video.StereoCamera(focal_px=args.focal_px, baseline_m=args.baseline_m, width=left.shape[2],
                                       height=left.shape[1])
-        seg = hog_jax.segment_stereo(models, left, right, start, camera, options, init=SKIN_TARGETS, min_init=2)
+        seg = hog_jax.video.segment_stereo(models, left, right, start, camera, options, init=SKIN_TARGETS, min_init=2)
         labels, positions = np.asarray(seg.left.labels), seg.positions
         tracks = positions.skin_left
     bar.update()
@@ -148,7 +148,7 @@ def run(args) -> int:
     if args.right is not None and (args.focal_px is None or args.baseline_m is None):
         raise ValueError("right: a stereo pair needs --focal-px and --baseline-m")
     left, right, rate = read_clip(args)
-    options = hog_jax.VideoOptions()
+    options = hog_jax.video.VideoOptions()
     start = first_segmented_frame(len(left), args.start, options)
     fps = check_real(args.fps, "fps", min_value=0.1) if args.fps is not None else rate or DEFAULT_FPS
     enable_compilation_cache()
@@ -160,7 +160,7 @@ def run(args) -> int:
     write_tracks(args.out / "tracks.csv", tracks, positions)
     segmented, lost = labels[start:], np.asarray(tracks.lost)[start:]
     rows = [("frames (segmented from)", f"{len(left)} ({start})"), ("size", f"{left.shape[2]} x {left.shape[1]}")]
-    rows += [(f"{name} pixels", f"{np.mean(segmented == r):.1%}") for r, name in enumerate(hog_jax.REGIONS)]
+    rows += [(f"{name} pixels", f"{np.mean(segmented == r):.1%}") for r, name in enumerate(hog_jax.video.REGIONS)]
     rows += [(f"{name} tracked", f"{np.mean(~lost[:, target]):.1%} of the segmented frames")
              for target, (name, _) in MARKED.items()]
     if positions is not None:

@@ -27,10 +27,10 @@ import numpy as np
 from hog_jax import euler_to_quat
 from experiments.data.grasp_tests import clutter_background
 from lfd_common import cache_dir, check_int, check_real, load_arrays, save_arrays
-from sim.grasp_objects import GRASP_CLASSES
-from sim.grasp_views import GraspRenderer, ViewDatabase, crop_hand, hand_center, sphere_camera, view_euler
-from sim.human_grasps import GRASP_POSTURES, posture
-from sim.human_hand import DEFAULT_SHAPE, HandShape, clip_posture
+from sim.grasping import GRASP_CLASSES
+from sim.grasping import GraspRenderer, ViewDatabase, crop_hand, hand_center, sphere_camera, view_euler
+from sim.hands import GRASP_POSTURES, posture
+from sim.hands import DEFAULT_SHAPE, HandShape, clip_posture
 
 # a hand neither the database's nor the test's: short fingers, thick, narrow palm, a medium skin tone
 VALIDATION_SHAPE = HandShape(

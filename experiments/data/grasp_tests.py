@@ -31,11 +31,11 @@ import cv2
 import numpy as np
 
 from lfd_common import cache_dir, check_int, check_real, load_arrays, save_arrays
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 from hog_jax import euler_to_quat
-from sim.grasp_views import GraspRenderer, hand_center, sphere_camera, view_euler
-from sim.human_grasps import GRASP_POSTURES, posture
-from sim.human_hand import DEFAULT_SHAPE, TEST_SHAPE, HandShape, clip_posture
+from sim.grasping import GraspRenderer, hand_center, sphere_camera, view_euler
+from sim.hands import GRASP_POSTURES, posture
+from sim.hands import DEFAULT_SHAPE, TEST_SHAPE, HandShape, clip_posture
 
 STAGES: tuple[str, ...] = ("starting to reach", "about to grasp", "grasp completed")
 _STAGE_POSTURE = (0.15, 0.7, 1.0)      # fraction of the way from the relaxed hand to the grasp

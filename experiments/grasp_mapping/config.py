@@ -5,8 +5,8 @@ import dataclasses
 
 import numpy as np
 
-from sim.grasp_objects import GRASP_CLASSES, VOLAR_GRASPS
-from sim.robot_hands import HAND_NAMES
+from sim.grasping import GRASP_CLASSES, VOLAR_GRASPS
+from sim.hands import HAND_NAMES
 
 
 @dataclasses.dataclass(frozen=True)

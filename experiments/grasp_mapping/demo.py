@@ -6,11 +6,11 @@ import time
 import numpy as np
 
 from experiments.config import StageResult, markdown_table
-from sim.grasp_objects import GRASP_CLASSES, GRASP_NAMES, robot_grasp_for
-from sim.grasp_rollout import rollout_grasps
-from sim.grasp_strategy import plan_trials
-from sim.render import render_frame
-from sim.robot_hands import HAND_NAMES, grasp_model
+from sim.grasping import GRASP_CLASSES, GRASP_NAMES, robot_grasp_for
+from sim.grasping import rollout_grasps
+from sim.grasping import plan_trials
+from sim.scenes import render_frame
+from sim.hands import HAND_NAMES, grasp_model
 
 
 def grasp_demo_stage(cfg, grasp: int | None = None) -> StageResult:

@@ -6,9 +6,9 @@ import numpy as np
 from experiments.grasp_mapping.config import Config, conditions
 from experiments.grasp_mapping.trials import finite_mean
 from experiments.plotting import plt
-from sim.grasp_objects import GRASP_NAMES, VOLAR_GRASPS
-from sim.render import render_frame
-from sim.robot_hands import grasp_model
+from sim.grasping import GRASP_NAMES, VOLAR_GRASPS
+from sim.scenes import render_frame
+from sim.hands import grasp_model
 
 
 def plot_fig4(cfg: Config, results: dict[str, dict]):

@@ -6,7 +6,7 @@ import numpy as np
 from experiments.config import markdown_table
 from experiments.grasp_mapping.config import Config, conditions
 from experiments.grasp_mapping.trials import finite_mean
-from sim.grasp_objects import GRASP_NAMES, VOLAR_GRASPS, robot_grasp_for
+from sim.grasping import GRASP_NAMES, VOLAR_GRASPS, robot_grasp_for
 
 
 def report(cfg: Config, results: dict, tables: dict, claim_rows: list, flat: dict) -> str:

@@ -13,9 +13,9 @@ from experiments.grasp_mapping.config import PRESETS, Config, conditions
 from experiments.grasp_mapping.report import report
 from experiments.grasp_mapping.trials import finite_mean, claims, run_hand, summarise
 from lfd_common import enable_compilation_cache
-from sim.grasp_objects import GRASP_NAMES, VOLAR_GRASPS
-from sim.grasp_rollout import SUBSTEPS, resolve_backend
-from sim.grasp_strategy import DONE, n_control_steps
+from sim.grasping import GRASP_NAMES, VOLAR_GRASPS
+from sim.grasping import SUBSTEPS, resolve_backend
+from sim.grasping import DONE, n_control_steps
 
 
 def rollout_stage(cfg: Config, backend: str) -> tuple[dict[str, dict], float]:

@@ -6,11 +6,11 @@ import time
 import numpy as np
 
 from experiments.grasp_mapping.config import Config, conditions, trial_table
-from sim.grasp_objects import GRASP_NAMES, VOLAR_GRASPS
-from sim.grasp_rollout import rollout_grasps
-from sim.grasp_strategy import plan_trials
-from sim.robot_hands import hand_spec
-from sim.virtual_fingers import human_entities, vf_errors
+from sim.grasping import GRASP_NAMES, VOLAR_GRASPS
+from sim.grasping import rollout_grasps
+from sim.grasping import plan_trials
+from sim.hands import hand_spec
+from sim.hands import human_entities, vf_errors
 
 
 def run_hand(cfg: Config, hand: str, backend: str) -> dict:

@@ -30,7 +30,7 @@ ladder.png.
 from experiments.grasp_recognition.config import PAPER, PRESETS, Config, parse_grid
 from experiments.grasp_recognition.demo import demo_stage
 from experiments.grasp_recognition.pieces import confusion, orientation_errors_deg, symmetric_errors_deg, wilson_interval
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 from experiments.grasp_recognition.stages import main, run_experiment
 
 __all__ = ["GRASP_CLASSES", "PAPER", "PRESETS", "Config", "parse_grid", "confusion", "demo_stage", "main", "orientation_errors_deg",

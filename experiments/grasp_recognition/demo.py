@@ -6,7 +6,7 @@ import dataclasses
 from experiments.config import StageResult, markdown_table
 from experiments.grasp_recognition.config import PRESETS, Config
 from experiments.grasp_recognition.stages import run_experiment
-from sim.grasp_objects import GRASP_NAMES, robot_grasp_for
+from sim.grasping import GRASP_NAMES, robot_grasp_for
 
 
 def demo_stage(cfg) -> StageResult:

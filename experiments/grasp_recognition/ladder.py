@@ -23,7 +23,7 @@ import hog_jax
 from experiments.data.grasp_tests import ALL_NUISANCES, GraspTestSet, Nuisances, random_set, sequence_set
 from experiments.grasp_recognition.config import Config
 from experiments.grasp_recognition.pieces import Crops, bar, crops_of
-from sim.human_hand import DEFAULT_SHAPE, TEST_SHAPE, HandShape
+from sim.hands import DEFAULT_SHAPE, TEST_SHAPE, HandShape
 
 
 class Rung(NamedTuple):

@@ -12,8 +12,8 @@ import hog_jax
 from experiments.config import progress
 from experiments.grasp_recognition.config import Config, parse_grid
 from lfd_common import quat_to_matrix
-from sim.grasp_objects import GRASP_CLASSES, GRASP_MAPPINGS
-from sim.grasp_views import render_views, view_database
+from sim.grasping import GRASP_CLASSES, GRASP_MAPPINGS
+from sim.grasping import render_views, view_database
 
 
 def bar(desc):

@@ -6,7 +6,7 @@ import numpy as np
 from experiments.data.grasp_tests import STAGES
 from experiments.grasp_recognition.config import Config
 from experiments.plotting import plt
-from sim.grasp_objects import GRASP_CLASSES, GRASP_NAMES
+from sim.grasping import GRASP_CLASSES, GRASP_NAMES
 
 
 def plot_confusions(mats: dict[str, np.ndarray], accs: dict[str, float]):

@@ -15,7 +15,7 @@ from experiments.grasp_recognition.config import Config
 from experiments.grasp_recognition.convnet import ConvClassifier, cached_convnet, classify_crops, fit_convnet
 from experiments.data.grasp_database import randomized_scenes
 from experiments.grasp_recognition.pieces import Crops, hog_features, knn_predict, segment_frames
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
 
 class Recogniser(NamedTuple):

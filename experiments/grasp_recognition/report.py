@@ -6,7 +6,7 @@ import numpy as np
 from experiments.config import markdown_table
 from experiments.data.grasp_tests import STAGES
 from experiments.grasp_recognition.config import Config
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
 
 def report(cfg: Config, m: dict, nested: dict, mats: dict) -> str:

@@ -13,7 +13,7 @@ from experiments.data.grasp_tests import GraspTestSet, stage_subsets
 from experiments.grasp_recognition.pieces import (Crops, accuracy, confusion, orientation_errors_deg,
                                                   symmetric_errors_deg, wilson_interval)
 from experiments.grasp_recognition.recogniser import Recognised, Recogniser, features, net_labels, recognise
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
 
 class SetScores(NamedTuple):

@@ -23,7 +23,7 @@ from experiments.grasp_recognition.recogniser import Recogniser, build_recognise
 from experiments.grasp_recognition.scoring import score_sets
 from experiments.grasp_recognition.report import report
 from lfd_common import enable_compilation_cache
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
 
 class Setup(NamedTuple):

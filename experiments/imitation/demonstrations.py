@@ -22,14 +22,14 @@ from typing import NamedTuple
 import numpy as np
 
 from experiments.data import video
-from experiments.data.oac.motion import _min_jerk
+from experiments.data.oac.motion import min_jerk
 from experiments.data.video import kinematics as kin
 from experiments.data.video import render as vrender
 from experiments.data.video.people import TABLE
 from lfd_common import cache_dir, check_int, check_real
-from sim.grasp_objects import GRASP_CLASSES
-from sim.human_grasps import GRASP_POSTURES
-from sim.human_hand import NEUTRAL_POSTURE_DEG, clip_posture
+from sim.grasping import GRASP_CLASSES
+from sim.hands import GRASP_POSTURES
+from sim.hands import NEUTRAL_POSTURE_DEG, clip_posture
 
 KINDS: tuple[str, ...] = ("point", "transfer")
 N_OBJECTS = len(video.OBJECTS)
@@ -54,7 +54,7 @@ class Demo(NamedTuple):
     place_xy: np.ndarray
 
 
-def _free(rng, taken: np.ndarray, gap: float) -> np.ndarray:
+def free(rng, taken: np.ndarray, gap: float) -> np.ndarray:
     """A random spot of the objects' area at least `gap` from every taken one (the gap shrinks by 10 %
     every 100 tries where the area is crowded)."""
     for i in range(1000):
@@ -77,11 +77,11 @@ def draw_demos(n: int, seed: int, n_persons: int, handover_xy=(-0.1, -0.30), kin
         handover = np.asarray(handover_xy, float)[None]
         places = np.zeros((0, 2))
         for _ in range(N_OBJECTS):
-            places = np.vstack([places, _free(rng, np.vstack([handover, places]), MIN_GAP_M)])
+            places = np.vstack([places, free(rng, np.vstack([handover, places]), MIN_GAP_M)])
         target = int(rng.integers(N_OBJECTS))
         kind = kinds[kind_of[i]]
         if kind == "transfer":
-            grasp, place = int(rng.choice(GRASP_CLASSES)), _free(rng, np.vstack([handover, places]), MIN_GAP_M)
+            grasp, place = int(rng.choice(GRASP_CLASSES)), free(rng, np.vstack([handover, places]), MIN_GAP_M)
         else:
             grasp, place = -1, np.asarray(handover_xy, float)
         out.append(Demo(kind, int(rng.integers(n_persons)), int(rng.integers(1 << 30)), places, target, grasp, place))
@@ -144,7 +144,7 @@ def _transfer(who, track: kin.Track, demo: Demo, settings: video.VideoSettings) 
     n_carry = max(6, int(round(rng.uniform(1.3, 1.8) * settings.fps / who.person.speed)))
     start = pose.object_pos[g, k]
     goal = np.array([*np.asarray(demo.place_xy, float), start[2]])
-    s = _min_jerk(np.arange(1, n_carry + 1) / n_carry)
+    s = min_jerk(np.arange(1, n_carry + 1) / n_carry)
     shift = s[:, None] * (goal - start) + (0.10 * np.sin(np.pi * s))[:, None] * np.array([0.0, 0.0, 1.0])
     carry = _take(pose, np.full(n_carry, g))
     ref = np.repeat(kin._unit(pose.r_elbow[g] - pose.r_shoulder[g])[None], n_carry, 0)
@@ -181,7 +181,7 @@ def demo_track(who, demo: Demo, settings: video.VideoSettings) -> kin.Track:
 _SOURCES = ("experiments.imitation.demonstrations",) + vrender._SOURCES
 
 
-def _cache_path(settings: video.VideoSettings, demo: Demo):
+def cache_path(settings: video.VideoSettings, demo: Demo):
     code = hashlib.sha1("".join(inspect.getsource(sys.modules[m]) for m in _SOURCES).encode()).hexdigest()
     key = json.dumps({"code": code, "settings": dataclasses.asdict(settings),
                       "demo": [demo.kind, demo.person, demo.seed, np.round(demo.objects_xy, 6).tolist(), demo.target,
@@ -196,7 +196,7 @@ def render_demo(settings: video.VideoSettings, demo: Demo, cache: bool = True, p
         raise ValueError(f"settings: expected a VideoSettings, got {type(settings).__name__}")
     demo = check_demo(demo, settings)
     script = _gesture_script(demo)
-    path = _cache_path(settings, demo)
+    path = cache_path(settings, demo)
     if cache and path.exists():
         return vrender._camera_noise(vrender._load(path), settings, script)
     scenes = vrender._Scenes(settings)

@@ -20,7 +20,7 @@ import hog_jax
 from experiments.data import video
 from experiments.imitation.config import Config
 from experiments.imitation.demonstrations import draw_demos, render_demo
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
 _GRASP_SEED = 3000  # the demonstrations of the "demonstrations" database (PHMMs: 2000, validation: 1000)
 

@@ -27,8 +27,8 @@ import numpy as np
 import phmm_jax as P
 from experiments.data import video
 from experiments.imitation.config import Config
-from experiments.imitation.demonstrations import (AREA_X, AREA_Y, KINDS, MIN_GAP_M, N_OBJECTS, Demo, _cache_path,
-                                                  _free, demo_track, table_z)
+from experiments.imitation.demonstrations import (AREA_X, AREA_Y, KINDS, MIN_GAP_M, N_OBJECTS, Demo, cache_path,
+                                                  free, demo_track, table_z)
 from experiments.lfd_demonstration.features import held
 from lfd_common import cache_dir, write_npz
 
@@ -67,12 +67,12 @@ class Tracked(NamedTuple):
 
 
 def _track_path(cfg: Config, settings, demo: Demo):
-    from experiments.lfd_demonstration.clips import _source_digest
+    from experiments.lfd_demonstration.clips import source_digest
 
-    blob = json.dumps({"video": _cache_path(settings, demo).name, "pad": cfg.pad_frames, "seed": cfg.seed,
+    blob = json.dumps({"video": cache_path(settings, demo).name, "pad": cfg.pad_frames, "seed": cfg.seed,
                        "skin": [cfg.n_persons, cfg.n_skin_persons], "coarse": cfg.coarse_scale,
                        "min_blob": cfg.min_blob_px_160,
-                       "code": _source_digest()}, sort_keys=True)
+                       "code": source_digest()}, sort_keys=True)
     return cache_dir("imitation_tracks") / f"track_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
 
 
@@ -175,10 +175,10 @@ def training_demos(cfg: Config, kind: str, seed: int) -> list[list[Demo]]:
             taken = xy[None]
             for k in range(N_OBJECTS):
                 if k != target:
-                    places[k] = _free(rng, taken, MIN_GAP_M)
+                    places[k] = free(rng, taken, MIN_GAP_M)
                     taken = np.vstack([taken, places[k]])
             grasp = int(rng.choice((1, 2, 4, 9, 10, 12))) if kind == "transfer" else -1
-            place = _free(rng, taken, MIN_GAP_M) if kind == "transfer" else np.asarray(cfg.handover_xy, float)
+            place = free(rng, taken, MIN_GAP_M) if kind == "transfer" else np.asarray(cfg.handover_xy, float)
             group.append(Demo(kind, int(rng.integers(cfg.demonstrators)), int(rng.integers(1 << 30)), places, target,
                               grasp, place))
         groups.append(group)

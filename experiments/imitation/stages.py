@@ -23,7 +23,7 @@ from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, r
 from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser
 from experiments.imitation.place import place_reader
 from lfd_common import cache_dir, enable_compilation_cache
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
 STAGES = ("tracking", "action", "target", "grasp", "place")  # recognition stages, in the loop's order
 _TRAIN_SEED = 2000
@@ -76,7 +76,7 @@ def phmm_models(cfg: Config, settings) -> list:
     return phmms
 
 
-def _tracked_demo(cfg, settings, demo, rgb_skin):
+def tracked_demo(cfg, settings, demo, rgb_skin):
     rec = render_demo(settings, demo, progress=None)
     return rec, pl.track(cfg, settings, demo, rec, rgb_skin)
 
@@ -89,7 +89,7 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
     actors = pl._Actors(settings)
     tracked, gaps = [], []
     for demo in progress(demos, desc="validation demonstrations"):
-        rec, t = _tracked_demo(cfg, settings, demo, rgb_skin)
+        rec, t = tracked_demo(cfg, settings, demo, rgb_skin)
         x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
         both = pl.plausible(t, cfg.median_frames) & visible[: len(t.found)]
         gaps.append(t.diff[both] - x[: len(t.found)][both])
@@ -139,7 +139,7 @@ def scene_objects(demo: Demo) -> tuple[int, ...]:
     """The robot scene's objects (`sim.grasp_objects` classes) standing in for the video's binoculars,
     cup and pitcher (the manipulator scene's defaults, `sim.manipulator.DEFAULT_OBJECTS`); in a transfer
     the handled object is the object of the demonstrated grasp's class (the object that grasp is for)."""
-    from sim.manipulator import DEFAULT_OBJECTS
+    from sim.robot import DEFAULT_OBJECTS
 
     objects = list(DEFAULT_OBJECTS)
     if demo.kind == "transfer":

@@ -3,10 +3,10 @@
     python -m experiments.lfd_demonstration --preset quick|paper --out DIR
 
 Long rendered recordings (`experiments.data.video.long_scripts`) through the video front end
-(`hog_jax.segment_stereo`: masks and the tracked hand in both views); the object in the hand from
-gradient-phase differences (`hog_jax.segment_objects`, eqs. 1-4, Fig. 3) beside an OpenCV peer
+(`hog_jax.video.segment_stereo`: masks and the tracked hand in both views); the object in the hand from
+gradient-phase differences (`hog_jax.video.segment_objects`, eqs. 1-4, Fig. 3) beside an OpenCV peer
 (StereoSGBM + DIS optical flow, `experiments.bench.object_peer`); the per-frame "object in hand"
-filtered over time into pick-up / put-down events (`hog_jax.periods_in_hand`, Fig. 8) and matched to
+filtered over time into pick-up / put-down events (`hog_jax.video.periods_in_hand`, Fig. 8) and matched to
 the ground truth.
 
 Outputs: metrics.json, report.md, fig3_likelihood_ratios.png, fig8_object_in_hand.png.

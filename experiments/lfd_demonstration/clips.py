@@ -38,7 +38,7 @@ def cut_recording(rec: video.Recording, T: int) -> video.Recording:
 
 
 @functools.cache  # once per process: a file edited during a run does not split its cache
-def _source_digest() -> str:
+def source_digest() -> str:
     """The code that makes a clip's features: `features`, `clip_features`, the front end's functions (of
     `stages` and of the video study) and every file of the hog_jax package (read from disk, so every
     entry point gets the same key), so an edit of any of them never reuses stale features (edits of
@@ -64,7 +64,7 @@ _FEATURE_FIELDS = ("seed", "video_preset", "n_persons", "n_skin_persons", "pad_f
 def _cache_path(cfg: Config, settings, spec: FeatureSpec, key: tuple[int, int, int]):
     video_fields = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("n_scripts", "script_oacs")}
     blob = json.dumps({"cfg": {k: getattr(cfg, k) for k in _FEATURE_FIELDS}, "settings": video_fields,
-                       "spec": dataclasses.asdict(spec), "clip": key, "code": _source_digest()}, sort_keys=True)
+                       "spec": dataclasses.asdict(spec), "clip": key, "code": source_digest()}, sort_keys=True)
     return cache_dir("lfd_clip_features") / f"clip_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
 
 

@@ -5,8 +5,8 @@ as ECCV §5), in the same layout as the OAC study's `experiments.data.oac.OACDat
 protocol runs unchanged on them.
 
 Two sources per recording, through one function (`frame_features`):
-- the pipeline: the level-set labels and α-β tracks of the video front end (`hog_jax.segment_stereo`)
-  and the phase-difference object masks (`hog_jax.segment_objects`);
+- the pipeline: the level-set labels and α-β tracks of the video front end (`hog_jax.video.segment_stereo`)
+  and the phase-difference object masks (`hog_jax.video.segment_objects`);
 - the renderer's masks (the ground truth of the same frames), the reference that says what the
   pipeline's segmentation costs.
 """
@@ -20,7 +20,7 @@ import numpy as np
 import hog_jax
 from experiments.data.oac import OACData, masked_hog
 from experiments.data.video import LABELS, OBJECTS, TRACKED
-from hog_jax.tracks import HAND
+from hog_jax.video import HAND
 from hog_jax.video import SKIN
 from lfd_common import check_int, check_real
 

@@ -1,7 +1,7 @@
 """The stages of the learning-from-demonstration study and its `main` (issue 19): skin models from the
-last persons' clips; every long recording through the video front end (`hog_jax.segment_stereo`),
-the object in the hand from phase differences (`hog_jax.segment_objects`) beside the OpenCV peer,
-and the pick-up / put-down events (`hog_jax.periods_in_hand`); figures; one writer."""
+last persons' clips; every long recording through the video front end (`hog_jax.video.segment_stereo`),
+the object in the hand from phase differences (`hog_jax.video.segment_objects`) beside the OpenCV peer,
+and the pick-up / put-down events (`hog_jax.video.periods_in_hand`); figures; one writer."""
 from __future__ import annotations
 
 import time
@@ -22,9 +22,9 @@ from experiments.lfd_demonstration.labelling import label_metrics, label_periods
 from experiments.lfd_demonstration.evaluate import (EventMatch, hand_width, held_object_motion, iou_by_bin,
                                                     match_events, pooled_iou, truth_windows)
 from experiments.lfd_demonstration.report import report
-from experiments.video_segmentation.stages import (_pad, background_options, camera_of, segmentation_start,
+from experiments.video_segmentation.stages import (pad, background_options, camera_of, segmentation_start,
                                                    skin_stage)
-from hog_jax.tracks import HAND
+from hog_jax.video import HAND
 from hog_jax.video import PERSON, SKIN, VideoOptions, fit_video_models, segment_stereo
 from lfd_common import enable_compilation_cache
 
@@ -34,7 +34,7 @@ def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool 
     smallest blob tracked (`hand_face_positions`), pixels."""
     options = VideoOptions(background=background_options(settings), coarse_scale=coarse_scale)
     start = segmentation_start(settings)
-    left, right, T = _pad(rec, pad_frames)
+    left, right, T = pad(rec, pad_frames)
     models, _ = fit_video_models(key, rgb_skin, left, start, options)
     seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3, min_area=min_area)
     cut = lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a
@@ -65,7 +65,7 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bo
     sigma = hand_width(np.asarray(positions.skin_left.cov)[:, HAND], observed)
     gl, gr = video.grey(rec.left), video.grey(rec.right)
     removed = (labels == SKIN) | ((labels == PERSON) if cfg.remove_person else False)  # not the object
-    ours = hog_jax.segment_objects(jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, removed, half,
+    ours = hog_jax.video.segment_objects(jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, removed, half,
                                    sigma, max_offset=half[1], blur_sigma=cfg.blur_sigma * scale,
                                    n_samples=cfg.n_samples, threshold=cfg.threshold,
                                    min_hand_motion=cfg.min_hand_motion * scale)
@@ -142,7 +142,7 @@ def object_stage(cfg: Config, settings, rgb_skin, clips=None,
             masks, found = out[name]
             counts = pooled_iou(masks, out["truth"])
             sums[name] += counts
-            periods = hog_jax.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, out["decided"])
+            periods = hog_jax.video.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, out["decided"])
             match = match_events(rec.pickup_frames, rec.putdown_frames, periods.pickup, periods.putdown)
             events[name].append(match)
             row.update({f"{name}_iou": counts[0] / max(counts[1], 1), f"{name}_missed": match.missed,

@@ -11,10 +11,10 @@ import numpy as np
 import crf_jax
 import phmm_jax as P
 from experiments.data import tabletop as tt
-from phmm_jax.retarget import retarget
-from phmm_jax.synthesis import multilinear_map
-from sim import robot_arm
-from sim.render import render_frame
+from phmm_jax import retarget
+from phmm_jax import multilinear_map
+from sim import robot
+from sim.scenes import render_frame
 
 
 def hand_centre(markers):
@@ -179,7 +179,7 @@ class RobotSetup:
         self.shoulder = frames[:, 1].mean(0)
         arm = (np.linalg.norm(frames[:, 2] - frames[:, 1], axis=-1)
                + np.linalg.norm(hand_centre(frames) - frames[:, 2], axis=-1))
-        self.scale = (robot_arm.UPPER_ARM_M + robot_arm.FOREARM_M) / float(np.median(arm))
+        self.scale = (robot.UPPER_ARM_M + robot.FOREARM_M) / float(np.median(arm))
         reaching = train.action == tt.ACTIONS.index("reaching")
         hand = hand_centre(train.markers[reaching])
         closest = np.argmin(np.linalg.norm(hand - train.target[reaching][:, None], axis=-1)
@@ -191,25 +191,25 @@ class RobotSetup:
         self.table_near_y = float(self.to_robot(np.array([0.0, tt.TABLE_EDGE_Y - 0.05, 0.0]))[1])
         table_targets = self.to_robot(np.asarray(targets))
         self.model = mujoco.MjModel.from_xml_string(
-            robot_arm.arm_scene_xml(self.table_z, self.table_near_y, targets=table_targets))
+            robot.arm_scene_xml(self.table_z, self.table_near_y, targets=table_targets))
 
     def to_robot(self, points):
-        return robot_arm.SHOULDER_POS + self.scale * (np.asarray(points) - self.shoulder)
+        return robot.SHOULDER_POS + self.scale * (np.asarray(points) - self.shoulder)
 
     def play(self, movements):
         """Retarget movements (K, S, 21) and play them back: (angles, qpos (K, S, 5), [Playback] * K)."""
-        angles = retarget(movements, robot_arm.UPPER_ARM_M, robot_arm.FOREARM_M, shoulder=self.shoulder,
+        angles = retarget(movements, robot.UPPER_ARM_M, robot.FOREARM_M, shoulder=self.shoulder,
                           scale=self.scale)
         qpos = np.concatenate([np.asarray(angles.shoulder), np.asarray(angles.elbow)[..., None],
                                np.asarray(angles.wrist)[..., None]], axis=-1)
-        return angles, qpos, [robot_arm.play(self.model, q) for q in qpos]
+        return angles, qpos, [robot.play(self.model, q) for q in qpos]
 
 
 def robot_metrics(setup: RobotSetup, angles, playbacks) -> dict:
     """Reach error (robot scale, cm), elbow-plane distance (mm), table clearance (cm)."""
     grasp = np.stack([p.grasp for p in playbacks])  # (K, S, 3)
     reach = np.linalg.norm(grasp - setup.targets[:, None], axis=-1).min(1) * 100
-    elbow = np.stack([p.elbow for p in playbacks]) - robot_arm.SHOULDER_POS
+    elbow = np.stack([p.elbow for p in playbacks]) - robot.SHOULDER_POS
     normal = np.cross(np.asarray(angles.elbow_point), np.asarray(angles.hand))
     plane = np.abs(np.sum(elbow * normal, -1)) / np.linalg.norm(normal, axis=-1) * 1000
     clearance = np.stack([p.table_distance for p in playbacks]) * 100

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hog_jax import connected_blobs
+from hog_jax.video import connected_blobs
 
 TRUE_POSITIVE, FALSE_POSITIVE, FALSE_NEGATIVE = 0, 1, 2
 
@@ -49,7 +49,7 @@ def per_photo_iou(counts: np.ndarray) -> np.ndarray:
 
 def largest_components(masks: np.ndarray) -> np.ndarray:
     """(B, H, W) bool: the largest 8-connected component of each mask (OpenCV, through
-    `hog_jax.connected_blobs`; ties as OpenCV orders them); all False for an empty mask."""
+    `hog_jax.video.connected_blobs`; ties as OpenCV orders them); all False for an empty mask."""
     return np.asarray(connected_blobs(np.asarray(masks, bool), max_blobs=1).labels) == 1
 
 

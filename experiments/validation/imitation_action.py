@@ -15,8 +15,8 @@ import numpy as np
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED
 from experiments.imitation.demonstrations import draw_demos
-from experiments.imitation.stages import _tracked_demo, scene_reader
-from experiments.validation.imitation_grasp import _SEED_OFFSET
+from experiments.imitation.stages import tracked_demo, scene_reader
+from experiments.validation.imitation_grasp import SEED_OFFSET
 from experiments.validation.imitation_place import loop_models
 
 
@@ -27,12 +27,12 @@ def main() -> None:
     parser.add_argument("--n-point", type=int, default=12, help="validation pointing demonstrations")
     args = parser.parse_args()
     cfg, settings, rgb, online, reach, offset = loop_models(args.preset)
-    seed = cfg.seed + VALIDATION_SEED + _SEED_OFFSET
+    seed = cfg.seed + VALIDATION_SEED + SEED_OFFSET
     demos = (draw_demos(args.n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
              + draw_demos(args.n_point, seed, cfg.demonstrators, cfg.handover_xy, kinds=("point",)))
     rows = []
     for demo in demos:
-        rec, tracked = _tracked_demo(cfg, settings, demo, rgb)
+        rec, tracked = tracked_demo(cfg, settings, demo, rgb)
         r = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                               merge_gap=cfg.merge_gap, reach_phmm=reach, scene=scene_reader(cfg, rec, tracked))
         rows.append((demo.kind, r.kind_phmm, r.kind))

@@ -18,16 +18,16 @@ from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.grasp_stage import demonstration_crops, grasp_recogniser
 from experiments.imitation.stages import skin_models
 from lfd_common import enable_compilation_cache
-from sim.grasp_objects import GRASP_CLASSES
+from sim.grasping import GRASP_CLASSES
 
-_SEED_OFFSET = 77  # a validation stream of its own: not the loop's threshold/offset demonstrations
+SEED_OFFSET = 77  # a validation stream of its own: not the loop's threshold/offset demonstrations
 
 
 def evaluate(cfg: Config, chroma, n: int) -> float:
     """Accuracy of cfg's grasp stage on n validation transfers' crops (and its confusion, printed)."""
     settings = cfg.video_settings()
     images, masks, found, grasps, _ = demonstration_crops(cfg, settings, chroma, n,
-                                                          cfg.seed + VALIDATION_SEED + _SEED_OFFSET)
+                                                          cfg.seed + VALIDATION_SEED + SEED_OFFSET)
     _, recogniser = grasp_recogniser(cfg, settings, chroma)
     out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
     pred = np.array([GRASP_CLASSES[k] if k >= 0 else -1 for k in out.labels])

@@ -18,8 +18,8 @@ import phmm_jax as P
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import demo_track, draw_demos
-from experiments.imitation.stages import _tracked_demo, phmm_models, scene_reader, skin_models, validation_stage
-from experiments.validation.imitation_grasp import _SEED_OFFSET
+from experiments.imitation.stages import tracked_demo, phmm_models, scene_reader, skin_models, validation_stage
+from experiments.validation.imitation_grasp import SEED_OFFSET
 from lfd_common import enable_compilation_cache
 
 
@@ -42,12 +42,12 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=24, help="validation transfer demonstrations")
     args = parser.parse_args()
     cfg, settings, rgb, online, reach, offset = loop_models(args.preset)
-    demos = draw_demos(args.n, cfg.seed + VALIDATION_SEED + _SEED_OFFSET, cfg.demonstrators, cfg.handover_xy,
+    demos = draw_demos(args.n, cfg.seed + VALIDATION_SEED + SEED_OFFSET, cfg.demonstrators, cfg.handover_xy,
                        kinds=("transfer",))
     actors = pl._Actors(settings)
     rows = []
     for demo in demos:
-        rec, tracked = _tracked_demo(cfg, settings, demo, rgb)
+        rec, tracked = tracked_demo(cfg, settings, demo, rgb)
         r = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                               merge_gap=cfg.merge_gap, reach_phmm=reach)
         if r.kind != "transfer":

@@ -11,7 +11,7 @@ import numpy as np
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import demo_track, draw_demos
-from experiments.imitation.stages import _tracked_demo, skin_models
+from experiments.imitation.stages import tracked_demo, skin_models
 from lfd_common import enable_compilation_cache
 
 
@@ -24,7 +24,7 @@ def preset_gaps(preset: str) -> None:
     actors = pl._Actors(settings)
     gaps = []
     for demo in demos:
-        _, tracked = _tracked_demo(cfg, settings, demo, rgb_skin)
+        _, tracked = tracked_demo(cfg, settings, demo, rgb_skin)
         x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
         both = pl.plausible(tracked, cfg.median_frames) & visible[: len(tracked.found)]
         gap = tracked.diff[both] - x[: len(tracked.found)][both]

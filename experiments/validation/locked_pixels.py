@@ -15,8 +15,9 @@ import numpy as np
 
 import sim
 from experiments.data import video
-from experiments.video_segmentation.stages import _pad, background_options, segmentation_start
-from hog_jax.video import VideoOptions, _colour_log_densities, fit_skin, fit_video_models, segment_recording
+from experiments.video_segmentation.stages import pad, background_options, segmentation_start
+from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_recording
+from hog_jax.video._src.pipeline import colour_log_densities
 from lfd_common import enable_compilation_cache
 
 SKIN_PERSONS = (1, 3)
@@ -35,7 +36,7 @@ for p in SKIN_PERSONS:
     skin.append(recs[p, 0].left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
 options = VideoOptions(background=background_options(settings))
 rec = recs[person, oac]
-left, _, T = _pad(rec, 50)
+left, _, T = pad(rec, 50)
 models, _ = fit_video_models(jax.random.key(1), fit_skin(jax.random.key(1), np.concatenate(skin)), left, start, options)
 seg = segment_recording(models, left, start, options)
 labels, moving = np.asarray(seg.labels)[:T], np.asarray(seg.foreground)[:T]
@@ -45,7 +46,7 @@ print(f"clip {person}:{oac}, {T} frames, segmented from {start}: {locked.sum()} 
 if locked.any():
     onset = T - np.argmax(~false_person[::-1][:, locked], axis=0)
     print("locked since frame (10 / 50 / 90 %):", np.percentile(onset, [10, 50, 90]).astype(int).tolist())
-    densities = np.asarray(_colour_log_densities(models, jnp.asarray(left[:T])))
+    densities = np.asarray(colour_log_densities(models, jnp.asarray(left[:T])))
     for t in (T - 60, T - 30, T - 1):
         d = densities[t][:, locked].mean(axis=1)
         print(f"frame {t}: moving {moving[t][locked].mean():.2f}, log-density background GMM {d[0]:.2f}, "
@@ -53,9 +54,9 @@ if locked.any():
     # Replay the background model of `_segment_one` from the labels (the hold rule is a function of the
     # previous frame's labels and this frame's colours) to read the pixel's own-mixture density and the
     # background score the level sets saw.
-    from hog_jax import background_kernel as bgk
-    from hog_jax.background import BackgroundStructure, check_options
-    from hog_jax.video import _person_coloured
+    from hog_jax.video._src import background_kernel as bgk
+    from hog_jax.video import BackgroundStructure, check_options
+    from hog_jax.video._src.pipeline import person_coloured
     from hog_jax.video import follow_light as hog_jax_follow
     bo = check_options(options.background)
     H, W = labels.shape[1:]
@@ -69,7 +70,7 @@ if locked.any():
     for t in range(T):
         x = jnp.asarray(xs[t])
         if t >= start:
-            held = (labels[t - 1].reshape(-1) != 0) & np.asarray(_person_coloured(densities[t])).reshape(-1)
+            held = (labels[t - 1].reshape(-1) != 0) & np.asarray(person_coloured(densities[t])).reshape(-1)
         if t in watch:
             own = np.asarray(own_log(state, x))[flat_locked]
             bg = np.logaddexp(densities[t][0].reshape(-1)[flat_locked], own) - np.log(2.0)

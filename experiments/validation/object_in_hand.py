@@ -16,7 +16,7 @@ from experiments.lfd_demonstration.stages import front_end, hand_tracks
 from experiments.lfd_demonstration.evaluate import hand_width, match_events, pooled_iou, truth_windows
 from experiments.video_segmentation.stages import skin_stage
 from experiments.bench.object_peer import peer_object_masks
-from hog_jax.tracks import HAND
+from hog_jax.video import HAND
 from hog_jax.video import SKIN, PERSON, OBJECT
 from lfd_common import enable_compilation_cache
 
@@ -70,7 +70,7 @@ def run(variant):
         remove = lab == SKIN
         if variant.get("remove_person"):
             remove = remove | (lab == PERSON)
-        seg = hog_jax.segment_objects(
+        seg = hog_jax.video.segment_objects(
             jax.random.key(1000 + i),
             gl,
             gr,
@@ -92,7 +92,7 @@ def run(variant):
         held = truth.any((1, 2))
         out["found_rate_held"].append(float(found[decided & held].mean()))
         out["found_rate_free"].append(float(found[decided & ~held].mean()))
-        periods = hog_jax.periods_in_hand(found, settings.fps, 1, 1.0, decided)
+        periods = hog_jax.video.periods_in_hand(found, settings.fps, 1, 1.0, decided)
         m = match_events(rec.pickup_frames, rec.putdown_frames, periods.pickup, periods.putdown)
         out["pick"] += list(np.abs(m.pickup_error))
         out["put"] += list(np.abs(m.putdown_error))

@@ -34,11 +34,12 @@ import argparse
 import jax.numpy as jnp
 import numpy as np
 
-from sim.grasp_objects import GRASP_NAMES
-from sim.grasp_rollout import SUBSTEPS, _outcomes, native_start, peak_touch
-from sim.grasp_strategy import (APPROACH, CLOSE, CONTROL_DT_S, DONE, RETRACT, TOUCH_THRESHOLD_N, n_control_steps,
-                                plan_trials)
-from sim.robot_hands import hand_spec
+from sim.grasping import GRASP_NAMES
+from sim.grasping import SUBSTEPS, native_start, peak_touch
+from sim.grasping import trial_outcomes
+from sim.grasping import (APPROACH, CLOSE, CONTROL_DT_S, DONE, RETRACT, TOUCH_THRESHOLD_N, n_control_steps,
+    plan_trials)
+from sim.hands import hand_spec
 
 
 def logged_rollout(hand: str, params, object_start):
@@ -68,7 +69,7 @@ def logged_rollout(hand: str, params, object_start):
             break
         record = batch.rollout(SUBSTEPS, record=("sensordata",), ids=active)["sensordata"]
         sensordata[active] = peak_touch(record, layout)
-    out = _outcomes(state, np.array(batch.bind("qpos")), layout, object_start, params.obj)
+    out = trial_outcomes(state, np.array(batch.bind("qpos")), layout, object_start, params.obj)
     return out, {k: np.stack(v) for k, v in log.items()}
 
 
@@ -87,7 +88,7 @@ def main(argv=None) -> None:
                     help="counterfactual only: override grasp_strategy.SLOW_SPEED_M_S (m/s) for this run")
     args = ap.parse_args(argv)
     if args.approach_speed is not None:   # read when the controller is first traced
-        import sim.grasp_strategy as gs
+        import sim._src.grasp_strategy as gs
         gs.SLOW_SPEED_M_S = args.approach_speed
     spec = hand_spec(args.hand)
     names = spec.link_names

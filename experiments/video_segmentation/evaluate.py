@@ -17,8 +17,8 @@ import cv2
 import numpy as np
 
 import hog_jax
-from hog_jax.blobs import connected_blobs
-from hog_jax.tracks import FACE, HAND
+from hog_jax.video import connected_blobs
+from hog_jax.video import FACE, HAND
 
 GT_PERSON, GT_HAND, GT_FACE, GT_OBJECT = 1, 2, 3, 4
 SKIN_ONLY, LEVEL_SETS, TRACKED = "skin_only", "levelset_no_tracking", "full"
@@ -79,7 +79,7 @@ def tracked_hand_face(skin: np.ndarray, tracks) -> tuple[np.ndarray, np.ndarray]
 
 def _centroid(mask: np.ndarray) -> np.ndarray:
     """(T, 2) (x, y) centroids, NaN for an empty mask."""
-    e = hog_jax.mask_ellipse(mask)
+    e = hog_jax.video.mask_ellipse(mask)
     return np.where(np.asarray(e.found)[:, None], np.asarray(e.centroid, float), np.nan)
 
 
@@ -132,7 +132,7 @@ def _hand_error_3d(rec, seg, sl, camera) -> np.ndarray:
     left = np.asarray(seg.positions.skin_left.position)[sl, HAND]
     right = np.asarray(seg.positions.skin_right.position)[sl, HAND]
     tracked = ~np.asarray(seg.positions.skin_left.lost)[sl, HAND] & ~np.asarray(seg.positions.skin_right.lost)[sl, HAND]
-    points = hog_jax.triangulate(camera, left.astype(float), right.astype(float))
+    points = hog_jax.video.triangulate(camera, left.astype(float), right.astype(float))
     ok = tracked & np.asarray(points.valid)
     err = 100.0 * np.linalg.norm(np.asarray(points.xyz) - rec.hand_cam[sl], axis=1)
     return np.where(ok, err, np.nan)

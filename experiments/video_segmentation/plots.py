@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from experiments.data.video import overlay  # noqa: E402
-from hog_jax.tracks import FACE, HAND  # noqa: E402
+from hog_jax.video import FACE, HAND
 
 # our labels (-1 none, 0 background, 1 person, 2 skin, 3 object) in the ground truth's colour code
 # (0 background, 1 person, 2 hand skin, 3 face skin, 4 object)

@@ -24,7 +24,7 @@ from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_ster
 from lfd_common import enable_compilation_cache
 
 
-def camera_of(rec) -> hog_jax.StereoCamera:
+def camera_of(rec) -> hog_jax.video.StereoCamera:
     """The recording's rectified pair from its camera matrices (world -> pixels): intrinsics and the
     two camera centres by `cv2.decomposeProjectionMatrix`, the baseline their distance."""
     K, _, left_centre = cv2.decomposeProjectionMatrix(rec.P_left)[:3]
@@ -32,7 +32,7 @@ def camera_of(rec) -> hog_jax.StereoCamera:
     K = K / K[2, 2]
     baseline = np.linalg.norm(left_centre[:3, 0] / left_centre[3, 0] - right_centre[:3, 0] / right_centre[3, 0])
     H, W = rec.left.shape[1:3]
-    return hog_jax.StereoCamera(focal_px=float(K[0, 0]), baseline_m=float(baseline), width=W, height=H,
+    return hog_jax.video.StereoCamera(focal_px=float(K[0, 0]), baseline_m=float(baseline), width=W, height=H,
                                 cx=float(K[0, 2]), cy=float(K[1, 2]))
 
 
@@ -42,11 +42,11 @@ def segmentation_start(settings: video.VideoSettings) -> int:
     return int(round(settings.n_empty + (settings.entry_s + settings.settle_s) * settings.fps))
 
 
-def background_options(settings: video.VideoSettings) -> hog_jax.BackgroundOptions:
+def background_options(settings: video.VideoSettings) -> hog_jax.video.BackgroundOptions:
     """The TR's learning rate alpha = 0.05 per frame at the paper preset's 25 fps, and the same
     forgetting time at other frame rates (1 - 0.95^(25 / fps) per frame): at the quick preset's
     10 fps the lighting drifts 2.5 times as far between frames."""
-    return hog_jax.BackgroundOptions(alpha=float(1.0 - (1.0 - 0.05) ** (25.0 / settings.fps)))
+    return hog_jax.video.BackgroundOptions(alpha=float(1.0 - (1.0 - 0.05) ** (25.0 / settings.fps)))
 
 
 def selected_clips(settings: video.VideoSettings, where):
@@ -75,7 +75,7 @@ def skin_stage(cfg: Config, settings: video.VideoSettings, persons=None):
                                                                           "non_skin_pixels": len(other)}
 
 
-def _pad(rec, multiple: int):
+def pad(rec, multiple: int):
     """The recording with its frames padded to a multiple of `multiple` (the last frame repeated), so
     that clips of similar length share one compilation; the scans are causal, so frames before the
     padding are unchanged."""
@@ -99,7 +99,7 @@ def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, Sta
     for person, cls, rep, rec in selected_clips(settings, evaluated):
         if cfg.max_clips and n >= cfg.max_clips:
             break
-        left, right, T = _pad(rec, cfg.pad_frames)
+        left, right, T = pad(rec, cfg.pad_frames)
         models, _ = fit_video_models(jax.random.key(cfg.seed + n), rgb_skin, left, start, options)
         seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
         seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)

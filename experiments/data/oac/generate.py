@@ -9,8 +9,8 @@ import sys
 import numpy as np
 
 import sim
-from experiments.data.oac.settings import N_CLASSES, OACData, OACSettings, _VERSION, draw_persons
-from experiments.data.oac.views import _Views, masked_hog, record
+from experiments.data.oac.settings import N_CLASSES, OACData, OACSettings, VERSION, draw_persons
+from experiments.data.oac.views import Views, masked_hog, record
 from lfd_common import cache_dir, check_int, write_npz
 
 
@@ -26,7 +26,7 @@ def _cache_path(settings: OACSettings):
                                                                        "generate")]
     code = hashlib.sha1("".join(inspect.getsource(m) for m in (*ours, sim.human_hand,
                                                                sim.human_grasps)).encode()).hexdigest()
-    key = json.dumps({"version": _VERSION, "code": code, **dataclasses.asdict(settings)}, sort_keys=True)
+    key = json.dumps({"version": VERSION, "code": code, **dataclasses.asdict(settings)}, sort_keys=True)
     digest = hashlib.sha1(key.encode()).hexdigest()[:16]
     return cache_dir("oac") / f"oac_{digest}.npz"
 
@@ -49,7 +49,7 @@ def generate(settings: OACSettings = OACSettings(), cache: bool = True, progress
     jobs = [(c, p) for p in range(settings.n_persons) for c in range(N_CLASSES)]
     recs, meta = [], []
     for c, p in (progress(jobs, desc="rendering OAC recordings") if progress else jobs):
-        views = _Views(c, persons[p], settings.image_px)
+        views = Views(c, persons[p], settings.image_px)
         for r in range(settings.n_repetitions):
             sub = np.random.default_rng([settings.seed, c, p, r])
             recs.append(record(views, c, persons[p], sub, settings))
@@ -90,7 +90,7 @@ def recording_images(settings: OACSettings, cls: int, person: int, repetition: i
     repetition = check_int(repetition, "repetition", min_value=0, max_value=settings.n_repetitions - 1)
     sim.setup_rendering()
     persons = draw_persons(np.random.default_rng(settings.seed), settings.n_persons)
-    views = _Views(cls, persons[person], settings.image_px)
+    views = Views(cls, persons[person], settings.image_px)
     try:
         return record(views, cls, persons[person], np.random.default_rng([settings.seed, cls, person, repetition]),
                       settings)

@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 
-from hog_jax import stereo
-from lfd_common import axis_angle_to_matrix as _rot, check_int  # _rot(axis (3,), angle (...)) -> (..., 3, 3)
+from hog_jax.video import StereoCamera, project, triangulate
+from lfd_common import axis_angle_to_matrix as rotation_about, check_int  # rotation_about(axis (3,), angle (...)) -> (..., 3, 3)
 from experiments.data.oac.grips import grip_of
 from experiments.data.oac.settings import BASELINE_M, FOCAL_PX, IMAGE_SIZE_PX, N_CLASSES, OACSettings, Person, TABLE_Z_M
 
@@ -20,7 +20,7 @@ def _frame(z_axis: np.ndarray, x_hint: np.ndarray) -> np.ndarray:
     return np.stack([x, np.cross(z, x), z], axis=1)
 
 
-def _min_jerk(s: np.ndarray) -> np.ndarray:
+def min_jerk(s: np.ndarray) -> np.ndarray:
     s = np.clip(s, 0.0, 1.0)
     return 10 * s**3 - 15 * s**4 + 6 * s**5
 
@@ -33,7 +33,7 @@ def _bump(s: np.ndarray) -> np.ndarray:
 
 # World: z up, the person's face centroid above the origin, the person faces -y (the camera).
 # x is the camera's right (the person's left); the right hand works on the -x side.
-def _face(person: Person) -> np.ndarray:
+def face_point(person: Person) -> np.ndarray:
     return np.array([0.0, 0.0, TABLE_Z_M + 0.45 * person.size])
 
 
@@ -59,7 +59,7 @@ def object_trajectory(cls: int, person: Person, rng: np.random.Generator, n_fram
     cls = check_int(cls, "cls", min_value=0, max_value=N_CLASSES - 1)
     n_frames = check_int(n_frames, "n_frames", min_value=4)
     s = np.linspace(0.0, 1.0, n_frames)
-    face = _face(person)
+    face = face_point(person)
     rest = face + person.size * np.array([_REST[cls][0], _REST[cls][1], 0.0])
     rest[2] = TABLE_Z_M + grip_of(cls, person).rest_height_m
     rest += 0.015 * rng.standard_normal(3) * np.array([1, 1, 0])
@@ -69,7 +69,7 @@ def object_trajectory(cls: int, person: Person, rng: np.random.Generator, n_fram
     hold = np.clip(person.hold + 0.04 * rng.standard_normal(), 0.2, 0.6)
     t_in = 0.5 * (1 - hold) * (1.0 + 0.1 * rng.standard_normal())
     t_out = t_in + hold
-    go, back = _min_jerk(s / t_in), _min_jerk((s - t_out) / (1 - t_out))
+    go, back = min_jerk(s / t_in), min_jerk((s - t_out) / (1 - t_out))
     phase = np.clip((s - t_in) / hold, 0.0, 1.0)
     path = go - back  # 0 at rest, 1 at the target
     arc = person.arc_m + 0.015 * rng.standard_normal(3)
@@ -77,24 +77,24 @@ def object_trajectory(cls: int, person: Person, rng: np.random.Generator, n_fram
     pos = rest + path[:, None] * (target - rest) + transport[:, None] * arc * person.size * person.amplitude
     roll = person.roll_rad + 0.1 * rng.standard_normal()
     base = _frame(_AXIS[cls], -_PALM[cls])
-    base = base @ _rot(np.array([0.0, 0.0, 1.0]), roll)
+    base = base @ rotation_about(np.array([0.0, 0.0, 1.0]), roll)
     tilt = person.tilt * (1.0 + 0.1 * rng.standard_normal())
     act = _bump(phase)
     if cls == 0:    # scanning: a slow yaw sweep with the binoculars at the eyes
         sweep = np.deg2rad(10.0) * tilt * np.sin(2 * np.pi * (phase + rng.uniform())) * act
-        rots = _rot(np.array([0.0, 0.0, 1.0]), sweep) @ base
+        rots = rotation_about(np.array([0.0, 0.0, 1.0]), sweep) @ base
     elif cls == 1:  # drinking: the cup's top tilts towards the face (+y), about the world x axis
-        rots = _rot(np.array([1.0, 0.0, 0.0]), -np.deg2rad(65.0) * tilt * act) @ base
+        rots = rotation_about(np.array([1.0, 0.0, 0.0]), -np.deg2rad(65.0) * tilt * act) @ base
     else:           # pouring: the spout side (+x of the part) goes down, about the world y axis
-        rots = _rot(np.array([0.0, 1.0, 0.0]), np.deg2rad(75.0) * tilt * act) @ base
+        rots = rotation_about(np.array([0.0, 1.0, 0.0]), np.deg2rad(75.0) * tilt * act) @ base
     # a small wrist tremor on every class
-    rots = _rot(np.array([0.0, 1.0, 0.0]), np.deg2rad(2.0) * np.sin(2 * np.pi * 1.3 * s + rng.uniform(0, 6))) @ rots
+    rots = rotation_about(np.array([0.0, 1.0, 0.0]), np.deg2rad(2.0) * np.sin(2 * np.pi * 1.3 * s + rng.uniform(0, 6))) @ rots
     return pos, rots
 
 
 def camera_pose(person: Person) -> tuple[np.ndarray, np.ndarray]:
     """Left camera centre (3,) and rotation (3, 3) (columns: image x right, image y down, optical axis)."""
-    face = _face(person)
+    face = face_point(person)
     centre = face + np.array([0.0, -person.camera_dist_m, -0.05]) + person.camera_m
     look = face + np.array([0.0, -0.2, -0.2])
     fwd = (look - centre) / np.linalg.norm(look - centre)
@@ -105,13 +105,13 @@ def camera_pose(person: Person) -> tuple[np.ndarray, np.ndarray]:
 
 
 # The data set's pair: principal point at (W / 2, H / 2), as the recordings were generated.
-CAMERA = stereo.StereoCamera(FOCAL_PX, BASELINE_M, *IMAGE_SIZE_PX, cx=IMAGE_SIZE_PX[0] / 2, cy=IMAGE_SIZE_PX[1] / 2)
+CAMERA = StereoCamera(FOCAL_PX, BASELINE_M, *IMAGE_SIZE_PX, cx=IMAGE_SIZE_PX[0] / 2, cy=IMAGE_SIZE_PX[1] / 2)
 
 
 def project(points: np.ndarray, centre: np.ndarray, rot: np.ndarray) -> np.ndarray:
     """Pinhole projection of world points (..., 3) to pixels (..., 2) of the camera at `centre`, `rot`
     (640 x 480, f = 525: `CAMERA`'s left view)."""
-    return stereo.project(CAMERA, (points - centre) @ rot).left
+    return project(CAMERA, (points - centre) @ rot).left
 
 
 def triangulate(left_px: np.ndarray, right_px: np.ndarray) -> np.ndarray:
@@ -121,7 +121,7 @@ def triangulate(left_px: np.ndarray, right_px: np.ndarray) -> np.ndarray:
     set clamps it at 1 px (a far point) rather than drop the frame, by moving the right pixel."""
     right = np.array(right_px, dtype=float)
     right[..., 0] = np.minimum(right[..., 0], np.asarray(left_px, float)[..., 0] - 1.0)
-    return stereo.triangulate(CAMERA, left_px, right).xyz
+    return triangulate(CAMERA, left_px, right).xyz
 
 
 def _ar1(rng: np.random.Generator, n: int, dims: int, rho: float = 0.8) -> np.ndarray:
@@ -144,7 +144,7 @@ def measured_positions(hand: np.ndarray, person: Person, rng: np.random.Generato
     """
     centre, rot = camera_pose(person)
     right_centre = centre + BASELINE_M * rot[:, 0]
-    face = np.broadcast_to(_face(person), hand.shape)
+    face = np.broadcast_to(face_point(person), hand.shape)
     n = hand.shape[0]
     near = np.linalg.norm(project(hand, centre, rot) - project(face, centre, rot), axis=-1) \
         < 0.1 * FOCAL_PX / person.camera_dist_m  # the hand blob touches the face blob

@@ -7,14 +7,14 @@ import numpy as np
 
 from experiments.data.oac.grips import grip_of
 from experiments.data.oac.settings import Person
-from experiments.data.oac.motion import _face, _rot
+from experiments.data.oac.motion import face_point, rotation_about
 from lfd_common import matrix_to_quat, quat_to_matrix
 
 
 # ----------------------------------------------------------------------- the person's hand, the scene
-def _hand_shape(person: Person):
+def hand_shape(person: Person):
     """The person's hand: `sim.human_hand.DEFAULT_SHAPE` scaled by sqrt(body size), skin tone varied."""
-    from sim.human_hand import DEFAULT_SHAPE, HandShape
+    from sim.hands import DEFAULT_SHAPE, HandShape
 
     k = math.sqrt(person.size)
     tone = 1.0 - 0.25 * (person.size * 7.0 % 1.0)  # a deterministic per-person skin tone
@@ -25,38 +25,38 @@ def _hand_shape(person: Person):
                      skin_rgba=skin)
 
 
-def _quat(rot: np.ndarray) -> np.ndarray:
+def rotation_to_quat(rot: np.ndarray) -> np.ndarray:
     """(3, 3) rotation -> (4,) unit quaternion (w, x, y, z)."""
     return matrix_to_quat(np.asarray(rot, float))
 
 
-def _grip(cls: int, person: Person) -> tuple[np.ndarray, np.ndarray]:
+def grip_pose(cls: int, person: Person) -> tuple[np.ndarray, np.ndarray]:
     """Hand pose (position (3,), rotation (3, 3)) in the grasped-part frame (x away from the palm).
 
     `sim.human_grasps` gives the hand in the frame of the grasp's own object (z its axis); that frame
     is turned about z so that the palm centre lies on the -x side, and the hand is moved out with
     its scale (a bigger hand holds the same object with its wrist further away).
     """
-    from sim.human_grasps import hand_pose_in_world
+    from sim.hands import hand_pose_in_world
 
     pos, quat = hand_pose_in_world(grip_of(cls, person).grasp)
     rot = quat_to_matrix(quat)
-    shape = _hand_shape(person)
+    shape = hand_shape(person)
     palm = pos + rot @ np.array([0.5 * shape.palm_length, 0.0, -0.5 * shape.palm_thickness])
     alpha = math.pi - math.atan2(palm[1], palm[0])  # turn the palm direction onto -x
-    fix = _rot(np.array([0.0, 0.0, 1.0]), alpha)
+    fix = rotation_about(np.array([0.0, 0.0, 1.0]), alpha)
     return fix @ pos * math.sqrt(person.size), fix @ rot
 
 
 def scene_xml(cls: int, person: Person, image_px: int) -> str:
     """MJCF: the person's head (skin) and one mocap body (the grasped part's frame) holding the object's
     geoms and the person's hand."""
-    from sim.human_hand import hand_body_xml, hand_defaults_xml
+    from sim.hands import hand_body_xml, hand_defaults_xml
     from sim.scenes import offscreen_visual_xml
 
-    shape = _hand_shape(person)
-    hand_pos, hand_rot = _grip(cls, person)
-    head = _face(person) + np.array([0.0, 0.06, 0.0]) * person.size  # the face surface is in front
+    shape = hand_shape(person)
+    hand_pos, hand_rot = grip_pose(cls, person)
+    head = face_point(person) + np.array([0.0, 0.06, 0.0]) * person.size  # the face surface is in front
     skin = " ".join(f"{c:.4f}" for c in shape.skin_rgba)
     return f"""<mujoco model="oac_{cls}">
   <compiler angle="radian"/>
@@ -70,7 +70,7 @@ def scene_xml(cls: int, person: Person, image_px: int) -> str:
     </body>
     <body name="grasped" mocap="true">
       <body name="object">{grip_of(cls, person).geoms}</body>
-      {hand_body_xml(shape, pos=hand_pos, quat=_quat(hand_rot))}
+      {hand_body_xml(shape, pos=hand_pos, quat=rotation_to_quat(hand_rot))}
     </body>
   </worldbody>
 </mujoco>"""

@@ -13,7 +13,7 @@ CLASSES: tuple[str, ...] = ("look through binoculars", "drink from cup", "pour f
 ACTIONS: tuple[str, ...] = ("look through", "drink from", "pour from")
 OBJECTS: tuple[str, ...] = ("binoculars", "cup", "pitcher")
 N_CLASSES = 3
-_VERSION = "oac-v3"
+VERSION = "oac-v3"
 
 # Camera (both views share intrinsics; rectified pair, right camera along the left camera's x axis).
 FOCAL_PX = 525.0

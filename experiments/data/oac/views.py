@@ -6,12 +6,12 @@ import math
 import numpy as np
 
 from experiments.data.oac.settings import OACSettings, Person
-from experiments.data.oac.motion import _face, camera_pose, measured_positions, object_trajectory
-from experiments.data.oac.scene import _quat, grip_of, scene_xml
+from experiments.data.oac.motion import face_point, camera_pose, measured_positions, object_trajectory
+from experiments.data.oac.scene import rotation_to_quat, grip_of, scene_xml
 
 
 # ---------------------------------------------------------------------------------------- rendering
-class _Views:
+class Views:
     """MuJoCo offscreen views of one (class, person) scene: square crops aimed from the left camera."""
 
     def __init__(self, cls: int, person: Person, image_px: int):
@@ -42,7 +42,7 @@ class _Views:
 
         self.data.qpos[:] = qpos
         self.data.mocap_pos[0] = pos
-        self.data.mocap_quat[0] = _quat(rot)
+        self.data.mocap_quat[0] = rotation_to_quat(rot)
         mujoco.mj_kinematics(self.model, self.data)
         return self.data.geom_xpos[self.hand_geoms].mean(axis=0)
 
@@ -136,10 +136,10 @@ def _motion_blur(image: np.ndarray, shift_px: np.ndarray) -> np.ndarray:
     return cv2.filter2D(image.astype(np.float32), -1, kernel / kernel.sum(), borderType=cv2.BORDER_CONSTANT)
 
 
-def record(views: _Views, cls: int, person: Person, rng: np.random.Generator, settings: OACSettings) -> dict:
+def record(views: Views, cls: int, person: Person, rng: np.random.Generator, settings: OACSettings) -> dict:
     """Render one recording: hand and object images (T, P, P) / (T, S, S) with masks, positions, T."""
-    from sim.human_grasps import GRASP_POSTURES
-    from sim.human_hand import clip_posture, posture_qpos
+    from sim.hands import GRASP_POSTURES
+    from sim.hands import clip_posture, posture_qpos
 
     duration = settings.duration_s / person.speed * (1.0 + 0.08 * rng.standard_normal())
     n = max(int(round(duration * settings.fps)), 8)
@@ -178,7 +178,7 @@ def record(views: _Views, cls: int, person: Person, rng: np.random.Generator, se
     obj_img = np.clip(obj_img + noise * rng.standard_normal(obj_img.shape), 0, 1) * obj_mask
     pos2d, pos3d = measured_positions(hand, person, rng, settings)
     return dict(n=n, hand_img=hand_img.astype(np.float32), hand_mask=hand_mask, obj_img=obj_img.astype(np.float32),
-                obj_mask=obj_mask, pos2d=pos2d, pos3d=pos3d, hand_true=hand - _face(person))
+                obj_mask=obj_mask, pos2d=pos2d, pos3d=pos3d, hand_true=hand - face_point(person))
 
 
 def masked_hog(images: np.ndarray, masks: np.ndarray, n_bins: int, n_levels: int) -> np.ndarray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from lfd_common import check_choice
-from experiments.data.tabletop.subjects import ACTIONS, FRAME_RATE_HZ, Subject, TABLE_EDGE_Y, TABLE_HEIGHT_M, _HIP
+from experiments.data.tabletop.subjects import ACTIONS, FRAME_RATE_HZ, Subject, TABLE_EDGE_Y, TABLE_HEIGHT_M, HIP
 
 
 def _unit(v):
@@ -25,7 +25,7 @@ def _trunk_rotation(pitch, yaw):
 
 def _body_point(rotation, point):
     """Where a trunk-fixed point (3,) (given with the trunk upright) is under rotation(s) (..., 3, 3)."""
-    return _HIP + rotation @ (point - _HIP)
+    return HIP + rotation @ (point - HIP)
 
 
 def _min_jerk(s):
@@ -33,7 +33,7 @@ def _min_jerk(s):
     return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
 
 
-def _elbow(shoulder, wrist, a, b, reference):
+def elbow_centres(shoulder, wrist, a, b, reference):
     """Elbow joint centres (T, 3) for shoulder and wrist (T, 3), upper arm a, forearm b, the elbow on
     the side of `reference` (T, 3) off the shoulder-wrist line. Wrists out of reach are pulled onto
     the sphere of full extension. Returns (elbow, wrist)."""
@@ -60,13 +60,13 @@ def _elbow_lift(shoulder, wrist, subject: Subject, reference, axis, clearance: f
     table (people lift the elbow when they reach across a table): per frame the smallest of 0-90 deg
     (in the direction that raises the elbow) that clears, then spread and smoothed in time."""
     angles = np.deg2rad(np.arange(0.0, 91.0, 5.0))
-    up = _elbow(shoulder, wrist, subject.upper_arm, subject.forearm,
+    up = elbow_centres(shoulder, wrist, subject.upper_arm, subject.forearm,
                 _rotate_about(reference, axis, np.full(len(axis), 0.3)))[0][:, 2]
-    down = _elbow(shoulder, wrist, subject.upper_arm, subject.forearm,
+    down = elbow_centres(shoulder, wrist, subject.upper_arm, subject.forearm,
                   _rotate_about(reference, axis, np.full(len(axis), -0.3)))[0][:, 2]
     sign = 1.0 if np.sum(up - down) > 0 else -1.0
     clear = np.stack([
-        _elbow(shoulder, wrist, subject.upper_arm, subject.forearm,
+        elbow_centres(shoulder, wrist, subject.upper_arm, subject.forearm,
                _rotate_about(reference, axis, np.full(len(axis), sign * a)))[0] for a in angles])  # (A, T, 3)
     ok = (clear[..., 1] < TABLE_EDGE_Y - 0.03) | (clear[..., 2] > TABLE_HEIGHT_M + clearance)
     need = angles[np.argmax(np.vstack([ok, np.ones((1, ok.shape[1]), bool)]), axis=0).clip(max=len(angles) - 1)]
@@ -219,7 +219,7 @@ def simulate_movement(rng: np.random.Generator, subject: Subject, target, action
     axis = _unit(wrist - shoulder)
     swivel = swivel + _elbow_lift(shoulder, wrist, subject, _rotate_about(reference, axis, swivel), axis)
     reference = _rotate_about(reference, axis, swivel)
-    elbow, wrist = _elbow(shoulder, wrist, subject.upper_arm, subject.forearm, reference)
+    elbow, wrist = elbow_centres(shoulder, wrist, subject.upper_arm, subject.forearm, reference)
     knuckle, tip, thumb = _hand_markers(wrist, d, n_vec, phase, shape, subject)
 
     markers = np.stack([sternum, shoulder, elbow, wrist, knuckle, tip, thumb], axis=1)

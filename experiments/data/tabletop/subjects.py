@@ -15,7 +15,7 @@ TABLE_HEIGHT_M = 0.73
 RASTER_ORIGIN = np.array([-0.30, 0.25, TABLE_HEIGHT_M])  # near-left corner of the raster (x, y, z)
 RASTER_SIZE_M = np.array([0.80, 0.30])  # width (x) x depth (y)
 TABLE_EDGE_Y = 0.20  # the table's near edge (the chest surface is at about y = 0.12)
-_HIP = np.array([0.0, -0.05, 0.55])  # trunk pivot (between the hip joints, seated)
+HIP = np.array([0.0, -0.05, 0.55])  # trunk pivot (between the hip joints, seated)
 _SEAT_HEIGHT = 0.45
 
 

@@ -5,7 +5,7 @@ swivel, wrist posture, timing) are `experiments.data.tabletop.simulate_movement`
 path in an OAC (lift, transport, the action's scanning / tilting, put-down) is
 `experiments.data.oac.object_trajectory`, the hand holding it with the grip of
 `experiments.data.oac.grips` / `sim.human_grasps`; the elbow of every arm pose not given by a
-movement is the table-top model's inverse kinematics from shoulder and wrist (`_elbow`).
+movement is the table-top model's inverse kinematics from shoulder and wrist (`elbow_centres`).
 
 An OAC = the outward half of a reaching movement to the object, blended over its last 60 % into the
 grip's hand pose; the object trajectory (of the script's action, started from where the object stands:
@@ -21,14 +21,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from experiments.data.oac.grips import grip_of
-from experiments.data.oac.motion import _min_jerk, object_trajectory
-from experiments.data.tabletop.movement import _elbow, simulate_movement
+from experiments.data.oac.motion import min_jerk, object_trajectory
+from experiments.data.tabletop.movement import elbow_centres, simulate_movement
 from experiments.data.video.people import TABLE, Actor, to_tabletop, to_world
 from experiments.data.video.settings import ACTIONS, Script, VideoSettings
-from sim.human_grasps import GRASP_POSTURES, posture
-from sim.human_hand import NEUTRAL_POSTURE_DEG, clip_posture
-from sim.person_body import body_points
-from sim.person_scene import ScenePose
+from sim.hands import GRASP_POSTURES, posture
+from sim.hands import NEUTRAL_POSTURE_DEG, clip_posture
+from sim.scenes import body_points
+from sim.scenes import ScenePose
 
 # index extended, the other fingers curled, the thumb over the middle finger
 _POINT_DEG = np.array([0.0, 40.0, 30.0, 20.0, 0.0, 0.0, 5.0, 0.0] + [0.0, 80.0, 95.0, 60.0] * 3)
@@ -75,7 +75,7 @@ def _between(u0, u):
 def _ramp(n, start=0.0, width=1.0):
     """Minimum-jerk 0 -> 1 (n,) over the fraction [start, start + width] of n frames."""
     s = np.linspace(0.0, 1.0, n) if n > 1 else np.ones(n)
-    return _min_jerk((s - start) / width)
+    return min_jerk((s - start) / width)
 
 
 def _hand_frame(m: np.ndarray) -> np.ndarray:
@@ -106,7 +106,7 @@ def _arm(actor: Actor, shoulder, wrist, reference):
     d = wrist - shoulder
     extra = np.clip(np.linalg.norm(d, axis=-1, keepdims=True) - 0.985 * (a + b), 0.0, 0.06)
     shoulder = shoulder + extra * _unit(d)
-    elbow, reach = _elbow(shoulder, wrist, a, b, reference)
+    elbow, reach = elbow_centres(shoulder, wrist, a, b, reference)
     return shoulder, elbow, reach
 
 

@@ -9,13 +9,13 @@ from typing import NamedTuple
 import numpy as np
 
 from experiments.data.oac.grips import grip_of
-from experiments.data.oac.motion import _face, camera_pose, object_trajectory
-from experiments.data.oac.scene import _grip, _hand_shape
+from experiments.data.oac.motion import face_point, camera_pose, object_trajectory
+from experiments.data.oac.scene import grip_pose, hand_shape
 from experiments.data.oac.settings import BASELINE_M, FOCAL_PX, IMAGE_SIZE_PX, OBJECTS, TABLE_Z_M, Person, draw_persons
-from experiments.data.tabletop.subjects import _HIP, TABLE_HEIGHT_M, Subject, sample_subject
+from experiments.data.tabletop.subjects import HIP, TABLE_HEIGHT_M, Subject, sample_subject
 from experiments.data.video.settings import VideoSettings
-from sim.person_body import CLOTH_PATTERNS, PersonLook, body_points
-from sim.person_scene import StereoRig, TableSpec, person_scene_xml
+from sim.scenes import CLOTH_PATTERNS, PersonLook, body_points
+from sim.scenes import StereoRig, TableSpec, person_scene_xml
 
 TABLE = TableSpec(top_z=TABLE_Z_M)
 # The table-top kinematics' frame (x the subject's right, y forward, origin on the floor below the hips,
@@ -84,7 +84,7 @@ def _look(person: Person, rng: np.random.Generator) -> PersonLook:
                       cloth_rgba=tuple(np.clip(cloth, 0, 1)) + (1.0,), cloth2_rgba=tuple(second) + (1.0,),
                       cloth_pattern=CLOTH_PATTERNS[rng.integers(len(CLOTH_PATTERNS))],
                       hair_rgba=tuple(_HAIR[rng.integers(len(_HAIR))] * rng.uniform(0.8, 1.1)) + (1.0,), hair=hair,
-                      short_sleeves=bool(rng.uniform() < 0.4), hand=_hand_shape(person))
+                      short_sleeves=bool(rng.uniform() < 0.4), hand=hand_shape(person))
 
 
 def _subject(look: PersonLook, face: np.ndarray, rng: np.random.Generator) -> Subject:
@@ -110,7 +110,7 @@ def actor(settings: VideoSettings, index: int) -> Actor:
     person = persons(settings)[index]
     rng = np.random.default_rng([settings.seed, 7, index])
     look = _look(person, rng)
-    face = _face(person)
+    face = face_point(person)
     subject = _subject(look, face, rng)
     rest_pos, rest_rot, grips, geoms = [], [], [], []
     for k in range(len(OBJECTS)):
@@ -119,7 +119,7 @@ def actor(settings: VideoSettings, index: int) -> Actor:
         slot = _SLOTS[k] + 0.02 * rng.standard_normal(2)
         rest_pos.append(np.array([slot[0], slot[1], TABLE_Z_M + grip.rest_height_m]))
         rest_rot.append(rots[0])
-        grips.append(_grip(k, person))
+        grips.append(grip_pose(k, person))
         geoms.append(grip.geoms)
     distractors = []
     for i in range(settings.n_distractors):
@@ -129,6 +129,6 @@ def actor(settings: VideoSettings, index: int) -> Actor:
     rig = rig_for(person, settings)
     left = np.array([*(_LEFT_WRIST * math.sqrt(person.size) + 0.015 * rng.standard_normal(2)),
                      TABLE_Z_M + 0.036 * person.size])
-    return Actor(person=person, look=look, subject=subject, rig=rig, face=face, hip=to_world(_HIP),
+    return Actor(person=person, look=look, subject=subject, rig=rig, face=face, hip=to_world(HIP),
                  rest_pos=np.array(rest_pos), rest_rot=np.array(rest_rot), grips=tuple(grips), left_wrist=left,
                  xml=person_scene_xml(look, rig, geoms, distractors, TABLE, shadows=settings.shadows))

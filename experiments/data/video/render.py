@@ -18,9 +18,9 @@ from experiments.config import progress as _progress_bar
 from experiments.data.oac.settings import N_CLASSES, OBJECTS
 from experiments.data.video.kinematics import Track, script_track
 from experiments.data.video.people import Actor, actor
-from experiments.data.video.settings import (TRACKED, UNSEEN, _VERSION, Primitive, Recording, Script,
+from experiments.data.video.settings import (TRACKED, UNSEEN, VERSION, Primitive, Recording, Script,
                                              VideoSet, VideoSettings, check_script)
-from sim.person_scene import PART_LABELS, PART_NAMES, PersonScene, ScenePose
+from sim.scenes import PART_LABELS, PART_NAMES, PersonScene, ScenePose
 
 _TRACKED_PARTS = np.array([PART_NAMES.index("hand"), PART_NAMES.index("face")]
                           + [PART_NAMES.index(f"object{k}") for k in range(len(OBJECTS))])
@@ -28,8 +28,8 @@ _STANDING = np.where(np.arange(len(PART_LABELS)) >= PART_NAMES.index("object0"),
 _SOURCES = ("experiments.data.video.settings", "experiments.data.video.people", "experiments.data.video.kinematics",
             "experiments.data.video.render", "experiments.data.oac.motion", "experiments.data.oac.grips",
             "experiments.data.oac.scene", "experiments.data.oac.settings", "experiments.data.tabletop.movement",
-            "experiments.data.tabletop.subjects", "sim.person_body", "sim.person_scene", "sim.human_hand",
-            "sim.human_grasps")
+            "experiments.data.tabletop.subjects", "sim._src.person_body", "sim._src.person_scene", "sim._src.human_hand",
+            "sim._src.human_grasps")
 
 
 def ellipses(parts: np.ndarray, ids: np.ndarray = _TRACKED_PARTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -64,7 +64,7 @@ def ellipses(parts: np.ndarray, ids: np.ndarray = _TRACKED_PARTS) -> tuple[np.nd
 
 def _cache_path(settings: VideoSettings, script: Script) -> Path:
     code = hashlib.sha1("".join(inspect.getsource(sys.modules[m]) for m in _SOURCES).encode()).hexdigest()
-    key = json.dumps({"version": _VERSION, "code": code, "settings": dataclasses.asdict(settings),
+    key = json.dumps({"version": VERSION, "code": code, "settings": dataclasses.asdict(settings),
                       "script": [script.person, script.seed, [list(p) for p in script.primitives]]},
                      sort_keys=True, default=float)
     return cache_dir("video") / f"rec_{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"

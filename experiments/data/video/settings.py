@@ -9,7 +9,7 @@ import numpy as np
 from lfd_common import check_int, check_real
 from experiments.data.oac.settings import ACTIONS as OAC_ACTIONS, OBJECTS
 
-_VERSION = "video-v1"
+VERSION = "video-v1"
 ACTIONS: tuple[str, ...] = OAC_ACTIONS + ("pointing", "reaching")   # per-frame action codes; -1 none
 LABELS: tuple[str, ...] = ("background", "person", "hand skin", "face skin") + OBJECTS  # label map values
 TRACKED: tuple[str, ...] = ("hand", "face") + OBJECTS                # the J parts with ground-truth ellipses

@@ -1,0 +1,138 @@
+"""From per-frame segmentation labels of a stereo pair to the hand-minus-face position (LfD 2009
+§III-A and Fig. 1a: "the 2D position of the centroid of the right hand segment relative to the
+centroid of the face segment"; with stereo, the same in 3-D): skin blobs of each view -> `track`
+(target 0 the face, 1 the right hand, 2 the other hand) -> the left image's hand - face (2-D) and
+the triangulated hand - face (3-D, left camera frame). Moving objects (at most `n_objects`, one per
+hand, level-set report §3.7) are tracked the same way from the object label; which of them the hand
+holds is not decided here.
+
+Stereo association: the same target id in both views (each view is tracked on its own with the same
+`init` rules, both views in one batched call); a frame where a target's rows differ between the views
+by more than `max_row_diff_px` (a rectified pair puts a point on one row) is not found in 3-D.
+
+Shapes: B videos (optional), T frames, H x W pixels; results keep the input's leading axes.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
+
+from hog_jax.video._src.blobs import connected_blobs
+from hog_jax.video._src.stereo import StereoCamera, triangulate
+from hog_jax.video._src.tracking import Tracks, track
+from lfd_common import as_array, check_int, check_real
+
+__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFacePositions", "hand_face_positions"]
+
+FACE, HAND, OTHER_HAND = 0, 1, 2  # target ids of the skin tracks
+
+
+class HandFacePositions(NamedTuple):
+    """xy_left (.., T, 2) px: hand - face centroid in the left image; xyz (.., T, 3) m: triangulated
+    hand - face in the left camera frame; found (.., T): hand and face tracked (observed or coasting,
+    not lost) in the left view; found_3d (.., T): also tracked in the right view, with positive
+    disparities and matching rows; observed (.., T): hand and face both measured in both views this
+    frame (not predictions). Where a flag is False its position is 0. skin_left / skin_right: `Tracks`
+    with M = len(init) (FACE, HAND, OTHER_HAND); objects_left / objects_right: `Tracks` with
+    M = n_objects (None if 0 or the input is boolean)."""
+
+    xy_left: Float[Array, "*T 2"]
+    xyz: Float[Array, "*T 3"]
+    found: Bool[Array, "*T"]
+    found_3d: Bool[Array, "*T"]
+    observed: Bool[Array, "*T"]
+    skin_left: Tracks
+    skin_right: Tracks
+    objects_left: Tracks | None
+    objects_right: Tracks | None
+
+
+def _masks(labels: np.ndarray, label: int) -> np.ndarray:
+    return labels if labels.dtype == bool else labels == label
+
+
+def _views(tracks: Tracks, batch: int) -> tuple[Tracks, Tracks]:
+    """Split the tracks of the stacked views (left first; 2 * batch videos, or 2 without a batch)."""
+    if batch:
+        return jax.tree.map(lambda x: x[:batch], tracks), jax.tree.map(lambda x: x[batch:], tracks)
+    return jax.tree.map(lambda x: x[0], tracks), jax.tree.map(lambda x: x[1], tracks)
+
+
+def _combine(camera: StereoCamera, left: Tracks, right: Tracks, max_row_diff: float):
+    """Hand - face in 2-D and 3-D with their flags, in float64 NumPy (a few numbers per frame)."""
+    pair = [FACE, HAND]
+    lost_left, lost_right = np.asarray(left.lost)[..., pair], np.asarray(right.lost)[..., pair]
+    pos_left = np.asarray(left.position, np.float64)[..., pair, :]
+    pos_right = np.asarray(right.position, np.float64)[..., pair, :]
+    tracked_left, tracked_right = ~lost_left.any(-1), ~lost_right.any(-1)
+    points = triangulate(camera, pos_left, pos_right)  # (.., T, 2, 3)
+    rows_agree = np.all(np.abs(pos_left[..., 1] - pos_right[..., 1]) <= max_row_diff, axis=-1)
+    found_3d = tracked_left & tracked_right & np.all(points.valid, axis=-1) & rows_agree
+    observed = np.all(np.asarray(left.observed)[..., pair], -1) & np.all(np.asarray(right.observed)[..., pair], -1)
+    xy = pos_left[..., 1, :] - pos_left[..., 0, :]
+    xyz = points.xyz[..., 1, :] - points.xyz[..., 0, :]
+    return (jnp.asarray(np.where(tracked_left[..., None], xy, 0.0), jnp.float32),
+            jnp.asarray(np.where(found_3d[..., None], xyz, 0.0), jnp.float32), jnp.asarray(tracked_left),
+            jnp.asarray(found_3d), jnp.asarray(observed))
+
+
+def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"],
+                        right: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"], camera: StereoCamera, *,
+                        skin_label: int = 2, object_label: int = 3, n_objects: int = 2,
+                        init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"), max_blobs: int = 8, min_area: int = 4,
+                        max_row_diff_px: float | None = None, alpha: float = 0.75, beta: float = 0.5,
+                        dt: float = 1.0, gate: float = 2.0, n_lost: int = 5, n_hidden: int = 50,
+                        min_init: int = 2) -> HandFacePositions:
+    """Hand-minus-face positions of a stereo video (T, H, W) or a batch (B, T, H, W) -> `HandFacePositions`.
+
+    left, right: per-frame segmentation labels of each view (integers: the level sets' -1 none,
+    0 background, 1 person, 2 skin, 3 object, or any labelling with `skin_label` and `object_label`),
+    or boolean skin masks (then no object is tracked). camera: the rectified pair (its image size must
+    be H x W). init: the skin targets' acquisition rules (`track`; default: the face the highest skin
+    blob, the hand the leftmost blob left of the face's extent, and the other hand the rightmost right
+    of it, so that neither a piece of the other arm, the neck nor the other hand is taken for the hand),
+    from the first frame with `min_init` skin blobs (2: face and hand; 3 where both hands are in view
+    once the person is there, so that a frame showing the face and only the other hand does not
+    start the hand's track on it). max_blobs,
+    min_area: connected components kept per frame (the largest; smaller ones are noise).
+    max_row_diff_px: the largest row difference of a target between the views (default 5 % of H).
+    alpha, beta, dt, gate, n_lost, n_hidden: the tracker's options (`track`). ValueError naming the
+    argument."""
+    if not isinstance(camera, StereoCamera):
+        raise ValueError(f"camera: expected a hog_jax.video.StereoCamera, got {type(camera).__name__}")
+    views = {}
+    for name, value in (("left", left), ("right", right)):
+        arr = as_array(value, name, ndim=(3, 4), dtype=None)
+        if arr.dtype != bool and not np.issubdtype(arr.dtype, np.integer):
+            raise ValueError(f"{name}: expected integer labels or boolean skin masks, got dtype {arr.dtype}")
+        views[name] = arr
+    if views["right"].shape != views["left"].shape:
+        raise ValueError(f"right: expected the shape of left {views['left'].shape}, got {views['right'].shape}")
+    if views["right"].dtype != views["left"].dtype:
+        raise ValueError(f"right: expected the dtype of left ({views['left'].dtype}), got {views['right'].dtype}")
+    H, W = views["left"].shape[-2:]
+    if (camera.height, camera.width) != (H, W):
+        raise ValueError(f"camera: its image is {camera.height} x {camera.width}, the frames are {H} x {W}")
+    init = tuple(init)
+    if len(init) < 2:
+        raise ValueError(f"init: expected the rules of the face, the hand (and more skin targets), got {init!r}")
+    skin_label = check_int(skin_label, "skin_label")
+    object_label = check_int(object_label, "object_label")
+    n_objects = check_int(n_objects, "n_objects", min_value=0, max_value=max_blobs)
+    row_tol = 0.05 * H if max_row_diff_px is None else check_real(max_row_diff_px, "max_row_diff_px", min_value=0.0)
+    batch = views["left"].shape[0] if views["left"].ndim == 4 else 0
+    both = np.concatenate([views["left"], views["right"]]) if batch else np.stack([views["left"], views["right"]])
+    options = dict(alpha=alpha, beta=beta, dt=dt, gate=gate, n_lost=n_lost, n_hidden=n_hidden)
+    skin = track(connected_blobs(_masks(both, skin_label), max_blobs, min_area), init, min_init=min_init, **options)
+    skin_left, skin_right = _views(skin, batch)
+    objects_left = objects_right = None
+    if n_objects and both.dtype != bool:
+        objects = track(connected_blobs(both == object_label, max_blobs, min_area), ("largest",) * n_objects,
+                        min_init=1, **options)
+        objects_left, objects_right = _views(objects, batch)
+    xy, xyz, found, found_3d, observed = _combine(camera, skin_left, skin_right, row_tol)
+    return HandFacePositions(xy, xyz, found, found_3d, observed, skin_left, skin_right, objects_left, objects_right)

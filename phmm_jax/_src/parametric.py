@@ -1,0 +1,401 @@
+"""Parametric HMMs (PHMM §III-B, BMVC §4): local HMMs at the corners of a regular grid over the
+parameter box [0, 1]^d, synchronised by training, interpolated component-wise and d-linearly.
+
+Shapes: d parameter dimensions, grid (g_1, ..., g_d) with C = Π g_k local HMMs, N states, D features.
+A parameter φ in [0, 1]^d lies in the grid cell around it; interpolation uses the 2^d corners of that
+cell (eqs. 1, 4–6). Outside [0, 1] (recognition searches [−ε, 1+ε]^d) means extrapolate linearly from
+the border cell; covariances and duration distributions use φ clipped to the box, so they stay valid
+(a positive-definite mix, a probability distribution).
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+from collections.abc import Sequence
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int
+
+from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log, solve_spd
+from lfd_common import check_mesh, map_batch
+from phmm_jax._src import inference as inference
+from phmm_jax._src.batched import emission_columns
+from phmm_jax._src.checks import (check_distances, check_fit_scale, check_grid_shape, check_type,
+    covariance_range, extrapolation_factor, mean_norm)
+from phmm_jax._src.data import Lengths, Sequences, check_feasible, stack_groups, to_device
+from phmm_jax._src.em import check_fit_result, em_step, initial_hmm, run_em
+from phmm_jax._src.emissions import stacked_log_density_columns
+from phmm_jax._src.model import (HMM, HMMConfig, duration_log_probs, reachable_states,
+    transitions_from_durations)
+from phmm_jax._src.options import FitOptions, check_options
+
+
+@partial(jax.tree_util.register_dataclass, data_fields=["local"], meta_fields=["grid_shape"])
+@dataclasses.dataclass(frozen=True)
+class PHMM:
+    """A parametric HMM: `local` is one HMM whose arrays carry a leading axis C over grid corners in
+    C order (the last parameter varies fastest); `grid_shape` = (g_1, ..., g_d)."""
+
+    local: HMM
+    grid_shape: tuple[int, ...]
+
+    @property
+    def n_params(self) -> int:
+        return len(self.grid_shape)
+
+    @property
+    def config(self) -> HMMConfig:
+        return self.local.config
+
+    def corner(self, index: tuple[int, ...]) -> HMM:
+        flat = int(np.ravel_multi_index(index, self.grid_shape))
+        return jax.tree_util.tree_map(lambda a: a[flat], self.local)
+
+
+def grid_points(grid_shape: tuple[int, ...]) -> Float[np.ndarray, "C d"]:
+    """Parameter values φ (C, d) of the corners of a regular grid over [0, 1]^d, in C order."""
+    grid_shape = check_grid_shape(grid_shape)
+    axes = [np.linspace(0.0, 1.0, g) for g in grid_shape]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(grid_shape))
+
+
+def cell_weights(grid_shape, phi):
+    """Corner indices (2^d,) and d-linear weights (2^d,) for φ (d,); weights may be negative outside
+    [0, 1]^d (linear extrapolation from the border cell). Differentiable in φ."""
+    grid = jnp.asarray(grid_shape)
+    scaled = phi * (grid - 1)
+    lower = jnp.clip(jnp.floor(jax.lax.stop_gradient(scaled)), 0, grid - 2).astype(jnp.int32)
+    frac = scaled - lower  # u, v, w of eqs. 4-6
+    offsets = jnp.asarray(list(itertools.product((0, 1), repeat=len(grid_shape))))  # (2^d, d)
+    weights = jnp.prod(jnp.where(offsets == 1, frac, 1.0 - frac), axis=1)
+    strides = jnp.asarray(np.cumprod((1,) + tuple(grid_shape[::-1]))[-2::-1].copy())
+    corners = jnp.sum((lower + offsets) * strides, axis=1)
+    return corners, weights
+
+
+def corner_weights(grid_shape, phi):
+    """(C,) the d-linear weight of every grid corner for φ (d,): `cell_weights` scattered onto the
+    whole grid (zero outside φ's cell). Interpolating with all C corners is one product with the
+    stacked local models, rather than a gather of each φ's 2^d corners that would copy
+    (B, 2^d, N, D, D) covariances."""
+    corners, weights = cell_weights(grid_shape, phi)
+    return jnp.zeros(int(np.prod(grid_shape)), weights.dtype).at[corners].add(weights)
+
+
+def interpolate(phmm: PHMM, phi: Float[Array, " d"]) -> HMM:
+    """The HMM λ^φ: d-linear interpolation of the local HMMs (means extrapolate; covariances and
+    duration distributions use φ clipped to [0, 1]^d)."""
+    weights = corner_weights(phmm.grid_shape, phi)
+    weights_in = corner_weights(phmm.grid_shape, jnp.clip(phi, 0.0, 1.0))
+    local = phmm.local
+    means = jnp.tensordot(weights, local.means, axes=1)
+    covariances = jnp.tensordot(weights_in, local.covariances, axes=1)
+    config = local.config
+    if config.explicit_duration:
+        p = jnp.exp(jax.vmap(duration_log_probs)(local))  # (C, N, P)
+        log_cont, log_exit = transitions_from_durations(config, safe_log(jnp.tensordot(weights_in, p, axes=1)))
+    else:  # self-loop probabilities interpolate directly
+        log_cont = safe_log(jnp.tensordot(weights_in, jnp.exp(local.log_cont), axes=1))
+        log_exit = safe_log(jnp.tensordot(weights_in, jnp.exp(local.log_exit), axes=1))
+    return HMM(means, covariances, log_cont, log_exit, config)
+
+
+@jax.jit
+def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
+    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d). Differentiable in φ."""
+    hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)  # arrays with a leading B axis
+    reachable = reachable_states(phmm.config, X.shape[1])
+    log_b = stacked_log_density_columns(X, hmms.means, hmms.covariances, reachable)  # (T, N, B)
+    return inference.forward_loglik(inference.stacked_chain(hmms), log_b, lengths)
+
+
+def check_phmm_distances(phmm: PHMM, X: np.ndarray, lengths: np.ndarray, factor: float, model_name: str,
+                         far_name: str) -> None:
+    """`checks.check_distances` for every λ^φ with φ in [0, 1]^d (naming `X` or `model_name`), then
+    with the means extrapolated by `factor` (`checks.extrapolation_factor`, naming `far_name`).
+    The interpolated covariances mix the corners' (φ clipped), so their smallest eigenvalue is at
+    least the corners' smallest."""
+    mean_bound = mean_norm(phmm.local.means, model_name)
+    low, _ = covariance_range(phmm.local.covariances, model_name)
+    grid = max(phmm.grid_shape)
+    check_distances(X, lengths, mean_bound, low, model_name=model_name, differentiable=True, grid=grid)
+    if factor > 1.0:
+        check_distances(X, lengths, factor * mean_bound, low, differentiable=True, grid=grid, blame=far_name)
+
+
+def _check_phi(phmm: PHMM, phi, batch: int):
+    phi = as_array(phi, "phi", ndim=(1, 2))
+    if phi.shape[-1] != phmm.n_params:
+        raise ValueError(f"phi: expected {phmm.n_params} parameter(s) per sequence, got shape {phi.shape}")
+    phi = np.broadcast_to(phi, (batch, phmm.n_params)) if phi.ndim == 1 else phi
+    if phi.shape[0] != batch:
+        raise ValueError(f"phi: expected {batch} rows (one per sequence), got {phi.shape[0]}")
+    return phi
+
+
+def phmm_log_likelihood(phmm: PHMM, X: Sequences, phi: Float[ArrayLike, "B d"] | Float[ArrayLike, " d"],
+                        lengths: Lengths = None) -> Float[Array, " B"]:
+    """log p(x | λ^φ) per sequence (B,). φ: (d,) for all sequences or (B, d). Differentiable in φ
+    through `batch_phmm_log_likelihood`.
+
+    φ may leave [0, 1]^d (the means extrapolate), but not so far that the log-likelihood or its
+    gradient overflows the compute dtype (φ = 1e30): that raises `ValueError` naming `phi`."""
+    check_type(phmm, "phmm", PHMM)
+    X, lengths = pad_sequences(X, lengths, dim=phmm.local.dim)
+    check_feasible(phmm.config, lengths)
+    phi = _check_phi(phmm, phi, X.shape[0])
+    check_phmm_distances(phmm, X, lengths, extrapolation_factor(phmm.grid_shape, phi), "phmm", "phi")
+    X, lengths = to_device(X, lengths)
+    return batch_phmm_log_likelihood(phmm, X, lengths, jnp.asarray(phi, X.dtype))
+
+
+def fit_phmm(groups: Sequence[Sequences], grid_shape: tuple[int, ...], config: HMMConfig = HMMConfig(),
+             *, options: FitOptions = FitOptions()) -> PHMM:
+    """Train a PHMM by the synchronised local training of PHMM §III-B1.
+
+    groups: one entry per grid corner in C order (`grid_points(grid_shape)` gives their φ), each a
+        list of (T_b, D) sequences or a (B, T, D) array, all of the same action.
+    1. A global HMM is fitted by EM on all sequences (`options.max_iter`). 2. Every local HMM starts
+    from it and runs EM on its own sequences (`options.local_max_iter`, default `max_iter`) with the
+    means fixed after the first iteration (eq. 2), so corresponding states of all local HMMs model
+    the same part of the movement. The local EMs run as one vmap.
+    grid_shape: a non-empty tuple (or list) of grid sizes >= 2. Raises `ValueError` naming the
+    argument for wrong types and, as `fit_hmm` does, instead of returning a NaN or singular model.
+    """
+    options = check_options(options)
+    grid_shape = check_grid_shape(grid_shape)
+    check_type(config, "config", HMMConfig)
+    if isinstance(groups, (str, bytes)) or not hasattr(groups, "__len__"):
+        raise ValueError(f"groups: expected a sequence of groups of sequences (one per grid corner), "
+                         f"got {type(groups).__name__}")
+    n_corners = int(np.prod(grid_shape))
+    if len(groups) != n_corners:
+        raise ValueError(f"groups: a {'x'.join(map(str, grid_shape))} grid needs {n_corners} groups of "
+                         f"sequences (one per corner), got {len(groups)}")
+    for k, group in enumerate(groups):
+        if isinstance(group, (str, bytes)) or not hasattr(group, "__len__"):
+            raise ValueError(f"groups[{k}]: expected a list of sequences or a (B, T, D) array, "
+                             f"got {type(group).__name__}")
+        if len(group) == 0:
+            raise ValueError(f"groups[{k}]: the grid corner {np.unravel_index(k, grid_shape)} has no sequences")
+    X, lengths, weights = stack_groups(groups, None, "groups")
+    check_feasible(config, lengths.ravel())
+    check_fit_scale(X, lengths, "groups")
+    X = jnp.asarray(X, float_dtype())
+    lengths, weights = jnp.asarray(lengths), jnp.asarray(weights, X.dtype)
+    flat = (X.reshape(-1, *X.shape[2:]), lengths.ravel(), weights.ravel())
+    global_hmm = initial_hmm(config, *flat, options.reg_covar, options.duration_pseudocount)
+    global_hmm, _ = run_em(global_hmm, *flat, options, options.max_iter)
+    check_fit_result(global_hmm, flat[0], options, "groups")
+    start = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n_corners,) + a.shape), global_hmm)
+    local_max_iter = options.max_iter if options.local_max_iter is None else options.local_max_iter
+    local, _ = run_em(start, X, lengths, weights, options, local_max_iter, freeze_means_after=1, step=_local_em_step)
+    check_fit_result(local, X, options, "groups")
+    return PHMM(local, grid_shape)
+
+
+@partial(jax.jit, static_argnames=("update_means",))
+def _local_em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True):
+    """`em_step` for all local HMMs at once (leading axis C on the HMM and the data)."""
+    return jax.vmap(lambda h, x, n, w: em_step(h, x, n, w, reg_covar, duration_pseudocount, update_means=update_means)
+                    )(hmm, X, lengths, weights)
+
+
+class Recognition(NamedTuple):
+    """label: (B,) index of the best PHMM. phi: (B, K, d) the best parameter per sequence and PHMM.
+    loglik: (B, K) log-likelihood at that parameter."""
+
+    label: Int[Array, " B"]
+    phi: Float[Array, "B K d"]
+    loglik: Float[Array, "B K"]
+
+
+def start_lattice(n_params: int, points: int | tuple[int, ...]) -> jnp.ndarray:
+    """(M, d) the lattice over [0, 1]^d with `points` per parameter (one count for all, or one each)."""
+    axes = [np.linspace(0.0, 1.0, n) for n in ((points,) * n_params if isinstance(points, int) else points)]
+    return jnp.asarray(np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, n_params))
+
+
+def _newton_direction(grad, hess, phi, lower, upper, damping):
+    """The damped Newton (Levenberg-Marquardt) ascent step δ (B, d) of every sequence: (A + s I) δ = g
+    with A = −H on the free coordinates, s the damping (relative to A's largest diagonal entry) plus
+    a Gershgorin shift that makes the matrix positive definite where H is not negative definite.
+    Coordinates on a face of the box whose gradient points outwards are held (projected Newton)."""
+    d = grad.shape[-1]
+    free = ~(((phi <= lower) & (grad < 0)) | ((phi >= upper) & (grad > 0)))  # (B, d)
+    eye = jnp.eye(d, dtype=grad.dtype)
+    both = free[:, :, None] & free[:, None, :]
+    a = jnp.where(both, -0.5 * (hess + jnp.swapaxes(hess, 1, 2)), 0.0)
+    a = jnp.where(eye > 0, jnp.where(free[:, :, None], a, 1.0), a)
+    diag = jnp.diagonal(a, axis1=1, axis2=2)
+    radius = jnp.sum(jnp.abs(a), axis=2) - jnp.abs(diag)
+    scale = jnp.max(jnp.abs(diag), axis=1) + jnp.finfo(grad.dtype).tiny
+    shift = jnp.maximum(0.0, jnp.max(radius - diag, axis=1)) + damping * scale + 1e-6 * scale
+    return solve_spd(a + shift[:, None, None] * eye, jnp.where(free, grad, 0.0))
+
+
+def _secant_update(hess, s, y):
+    """BFGS update (B, d, d) of the Hessian H of a maximisation from steps s (B, d) and gradient
+    changes y (B, d); skipped per sequence where the curvature condition fails."""
+    a = -hess
+    a_s = jnp.einsum("bij,bj->bi", a, s)
+    s_a_s = jnp.sum(s * a_s, axis=1)
+    y_s = -jnp.sum(y * s, axis=1)
+    ok = (y_s > 1e-12 * jnp.sqrt(jnp.sum(s * s, 1) * jnp.sum(y * y, 1))) & (s_a_s > 0)
+    update = y[:, :, None] * y[:, None, :] / jnp.where(ok, y_s, 1.0)[:, None, None] \
+        - a_s[:, :, None] * a_s[:, None, :] / jnp.where(ok, s_a_s, 1.0)[:, None, None]
+    return -(a + jnp.where(ok[:, None, None], update, 0.0))
+
+
+_FACE_MARGIN = 0.15  # how near a grid line the probe of `search_parameters` looks
+_PROBE_DISTANCES = (0.03, 0.075)  # how far across it the probes lie (at least)
+
+
+def _default_lattice(grid_shape: tuple[int, ...]) -> tuple[int, ...]:
+    """Start-lattice points per parameter, chosen on validation data (README): 5 for 2 grid points."""
+    return tuple(5 if g == 2 else 6 * (g - 1) + 1 for g in grid_shape)  # else 6 intervals per cell
+
+
+@partial(jax.jit, static_argnames=("n_steps", "lattice_points", "face_steps"))
+def search_parameters(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points: int, face_steps: int):
+    """φ* for every sequence (PHMM eq. 3): the best point of a lattice (`start_lattice`) under the
+    full model, `n_steps` damped, projected quasi-Newton steps from there (exact Hessian at the start,
+    BFGS updates after, a step kept only where it raises the likelihood), then probes across the
+    nearest grid lines and `face_steps` more steps. Returns (φ (B, d), loglik (B,)).
+
+    Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
+    sequence's gradient, and one reverse pass of that gradient along coordinate k gives row k of
+    every sequence's d x d Hessian at once."""
+    d = phmm.n_params
+    lower, upper = -epsilon, 1.0 + epsilon
+    lattice = start_lattice(d, lattice_points)  # (M, d)
+
+    def at_point(phi):  # every sequence scored under one interpolated model (no per-sequence models)
+        hmm = interpolate(phmm, phi)
+        return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
+
+    scores = jax.vmap(at_point)(lattice)  # (M, B)
+
+    def gradient(phi):
+        loglik, pullback = jax.vjp(lambda p: batch_phmm_log_likelihood(phmm, X, lengths, p), phi)
+        return pullback(jnp.ones_like(loglik))[0], loglik
+
+    def with_hessian(phi):  # log-likelihood (B,), gradient (B, d), Hessian (B, d, d)
+        grad, pullback, loglik = jax.vjp(gradient, phi, has_aux=True)
+        basis = jnp.broadcast_to(jnp.eye(d, dtype=phi.dtype)[:, None, :], (d,) + phi.shape)
+        rows = jax.vmap(lambda e: pullback(e)[0])(basis)  # (d, B, d): rows[k, b] = ∂g_bk/∂φ_b
+        return loglik, grad, jnp.swapaxes(rows, 0, 1)
+
+    def step(carry, _):
+        phi, loglik, grad, hess, damping = carry
+        candidate = jnp.clip(phi + _newton_direction(grad, hess, phi, lower, upper, damping), lower, upper)
+        c_grad, c_loglik = gradient(candidate)
+        c_hess = _secant_update(hess, candidate - phi, c_grad - grad)
+        better = jnp.isfinite(c_loglik) & (c_loglik > loglik) & jnp.all(jnp.isfinite(c_grad), axis=1)
+        pick = lambda new, old: jnp.where(better.reshape((-1,) + (1,) * (new.ndim - 1)), new, old)  # noqa: E731
+        # A rejected step still tells the secant model about the curvature along it.
+        hess = jnp.where(jnp.all(jnp.isfinite(c_hess), axis=(1, 2))[:, None, None], c_hess, hess)
+        damping = jnp.where(better, jnp.maximum(damping * 0.1, 1e-8), damping * 10.0)
+        return (pick(candidate, phi), pick(c_loglik, loglik), pick(c_grad, grad), hess, damping), None
+
+    def ascend(init, steps):
+        (phi, loglik, *_), _ = jax.lax.scan(step, init, None, length=steps)
+        return phi, loglik
+
+    start = lattice[jnp.argmax(scores, axis=0)]
+    damping = jnp.full(start.shape[0], 1e-3, start.dtype)
+    phi, loglik = ascend((start, *with_hessian(start), damping), n_steps)
+    if face_steps > 0:
+        # Covariances and durations stop changing at the faces of [0, 1]^d while the means go on, and
+        # the d-linear interpolation changes cell at the grid lines between, so the likelihood has
+        # kinks there and often a second maximum just across. Probe the mirror image across the
+        # nearest grid line of every coordinate near one (one at a time and all together, at two
+        # distances at least), restart from the best of these where it beats φ, and climb again.
+        cells = jnp.asarray(phmm.grid_shape, phi.dtype) - 1.0
+        face = jnp.clip(jnp.round(phi * cells), 0.0, cells) / cells  # the nearest grid line of each coordinate
+        offset = phi - face
+        near = jnp.abs(offset) < _FACE_MARGIN
+        distances = jnp.asarray(_PROBE_DISTANCES, phi.dtype)[:, None, None]  # (R, 1, 1)
+        mirror = face - jnp.where(offset >= 0, 1.0, -1.0) * jnp.maximum(jnp.abs(offset), distances)  # (R, B, d)
+        masks = jnp.concatenate([jnp.eye(d, dtype=bool), jnp.ones((1, d), bool)])  # (d + 1, d)
+        probes = jnp.where(masks[None, :, None, :] & near[None, None], mirror[:, None], phi[None, None])
+        n_probes = len(_PROBE_DISTANCES) * (d + 1)
+        probes = jnp.clip(probes.reshape(n_probes, -1, d), lower, upper)
+        tiled = lambda a: jnp.tile(a, (n_probes,) + (1,) * (a.ndim - 1))  # noqa: E731
+        probe_values = batch_phmm_log_likelihood(phmm, tiled(X), tiled(lengths), probes.reshape(-1, d)).reshape(n_probes, -1)
+        probe_values = jnp.where(jnp.isfinite(probe_values), probe_values, -jnp.inf)
+        take = jnp.max(probe_values, axis=0) > loglik
+        restart = jnp.where(take[:, None], probes[jnp.argmax(probe_values, axis=0), jnp.arange(phi.shape[0])], phi)
+        phi2, loglik2 = ascend((restart, *with_hessian(restart), damping), face_steps)
+        better = loglik2 > loglik
+        phi, loglik = jnp.where(better[:, None], phi2, phi), jnp.where(better, loglik2, loglik)
+    return phi, loglik
+
+
+def _search_shard(phmm: PHMM, epsilon, X, lengths, *, n_steps: int, lattice_points: int, face_steps: int):
+    """`search_parameters` on one shard's sequences of a batch split over a mesh."""
+    return search_parameters(phmm, X, lengths, epsilon, n_steps, lattice_points, face_steps)
+
+
+def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
+              n_steps: int = 6, lattice_points: int | None = None, face_steps: int = 3, *, mesh=None) -> Recognition:
+    """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
+
+    For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ), from the best point of a
+    lattice over [0, 1]^d (`lattice_points` per parameter; None: 5 for a grid of 2 points, 6 intervals
+    per grid cell for more) by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
+    by automatic differentiation at the start, BFGS updates after; a step is kept only where it
+    raises the likelihood, so the result is never worse than the lattice), then probes across the
+    nearest grid lines (the faces of [0, 1]^d, where interpolated covariances and durations stop and
+    the means go on, and the lines between grid cells, where the d-linear interpolation changes cell:
+    kinks, often with a second maximum just across), and `face_steps` more steps (0: no probe).
+    The label is the k with the highest log-likelihood at its φ_k. Batched over sequences.
+    phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
+    Defaults: a lattice point scores all sequences under one model (cheap), a step needs one model
+    per sequence (dear); how close the defaults come to a dense scan plus a long refinement is
+    measured by `experiments.bench.bench_hmm` (`recognition_at_max_rate`).
+    Raises `ValueError` naming the argument for anything else: n_steps < 1, face_steps < 0,
+    lattice_points < 1, a negative epsilon, models that are not PHMMs, and data (or an epsilon) so
+    far from a model's means that the search would overflow the compute dtype.
+    mesh: a `jax.sharding.Mesh` (or None: one device). The sequences are split over its devices
+    (`lfd_common.map_batch`: padded to the mesh, the padding cut off), each device searches φ for its
+    own (every sequence's search is independent); the result equals the one-device result. With
+    several processes each passes its own sequences and gets its own rows.
+    """
+    mesh = check_mesh(mesh)
+    if isinstance(phmms, PHMM):
+        phmms = [phmms]
+    elif isinstance(phmms, (list, tuple)):
+        phmms = list(phmms)
+    else:
+        raise ValueError(f"phmms: expected a PHMM or a sequence of PHMMs, got {type(phmms).__name__}")
+    if not phmms:
+        raise ValueError("phmms: need at least one PHMM")
+    for k, phmm in enumerate(phmms):
+        check_type(phmm, f"phmms[{k}]", PHMM)
+    epsilon = check_real(epsilon, "epsilon", min_value=0.0)
+    n_steps = check_int(n_steps, "n_steps", min_value=1)
+    face_steps = check_int(face_steps, "face_steps", min_value=0)
+    if lattice_points is not None:
+        lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
+    X, lengths = pad_sequences(X, lengths, dim=phmms[0].local.dim)
+    for k, phmm in enumerate(phmms):
+        if phmm.local.dim != X.shape[-1] or phmm.n_params != phmms[0].n_params:
+            raise ValueError(f"phmms[{k}]: differs in feature dimension or parameter count from phmms[0]")
+        check_feasible(phmm.config, lengths)
+        reach = extrapolation_factor(phmm.grid_shape, np.full((1, phmm.n_params), -epsilon))
+        check_phmm_distances(phmm, X, lengths, reach, f"phmms[{k}]", "epsilon")
+    X, lengths = to_device(X, lengths)
+    lattice = lambda p: lattice_points or _default_lattice(p.grid_shape)  # noqa: E731
+    if mesh is None:
+        results = [search_parameters(p, X, lengths, epsilon, n_steps, lattice(p), face_steps) for p in phmms]
+    else:
+        static = lambda p: (("n_steps", n_steps), ("lattice_points", lattice(p)), ("face_steps", face_steps))  # noqa: E731
+        results = [map_batch(_search_shard, mesh, (p, epsilon), (X, lengths), static=static(p)) for p in phmms]
+    phi = jnp.stack([r[0] for r in results], axis=1)
+    loglik = jnp.stack([r[1] for r in results], axis=1)
+    return Recognition(jnp.argmax(loglik, axis=1), phi, loglik)

@@ -1,0 +1,197 @@
+"""The motion half of the robot's task controller (issue 21; `sim.task_controller` runs it): one native
+MuJoCo world stepped by control periods (`TaskSim`: palm pose -> tracking IK -> the arm's servo targets,
+the grasp study's sensors read per period), min-jerk moves along polylines, holds, and the geometry of
+standing a held object upright."""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from sim._src.grasp_rollout import SUBSTEPS, peak_touch
+from sim._src.grasp_strategy import CONTROL_DT_S
+from sim._src.manipulator import HOME_Q, manipulator_qpos
+from sim._src.manipulator_ik import solve_ik
+from sim._src.render import setup_rendering
+from sim._src.robot_hands import SceneLayout
+from sim._src.task_plan import TaskScene, TaskSpec
+
+TRACK_ITERATIONS = 10        # DLS steps per control step of the tracking IK
+
+
+def min_jerk(n: int) -> np.ndarray:
+    s = np.linspace(0.0, 1.0, max(n, 1) + 1)[1:]
+    return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
+
+
+class TaskSim:
+    """One world stepped by control periods: palm pose -> tracking IK -> arm servo targets."""
+
+    def __init__(self, scene: TaskScene, spec: TaskSpec, open_: np.ndarray, render: bool, camera, width, height,
+                 fps):
+        self.scene, self.model = scene, scene.model
+        self.data = mujoco.MjData(self.model)
+        arm = scene.arm
+        self.data.qpos[:] = _start_qpos(scene, open_)
+        self.q_cmd = HOME_Q.astype(float).copy()
+        self.data.ctrl[arm.arm_ctrl] = self.q_cmd
+        self.data.ctrl[arm.hand_ctrl] = open_
+        mujoco.mj_forward(self.model, self.data)
+        self.sensordata = self.data.sensordata[None].copy()
+        self.target = spec.target
+        self.others = [b for k, b in enumerate(arm.object_body) if k != spec.target]
+        self.others_start = self.data.xpos[self.others].copy()
+        self.obj_geom = self.model.body_geomadr[arm.object_body[spec.target]]
+        self.t = 0.0
+        self.frames, self.renderer = [], None
+        if render:
+            setup_rendering()
+            self.renderer = mujoco.Renderer(self.model, height=height, width=width)
+            self.camera, self.frame_dt, self.next_frame = camera, 1.0 / fps, 0.0
+            self._grab()
+
+    def _grab(self):
+        self.renderer.update_scene(self.data, camera=self.camera)
+        self.frames.append(self.renderer.render().copy())
+        self.next_frame += self.frame_dt
+
+    def step(self, pos: np.ndarray, rot: np.ndarray, fingers: np.ndarray) -> None:
+        """One control period with the palm commanded to (pos (3,), rot (3, 3)) and the hand to fingers (D,)."""
+        ik = solve_ik(self.scene.chain, pos[None], rot[None], self.q_cmd[None], n_restarts=1, rounds=1,
+                      iterations=TRACK_ITERATIONS)
+        self.q_cmd = np.asarray(ik.q[0], float)
+        self._step(fingers)
+
+    def _step(self, fingers: np.ndarray) -> None:
+        """One control period with the arm's servos at `q_cmd` and the hand's at fingers (D,)."""
+        arm = self.scene.arm
+        self.data.ctrl[arm.arm_ctrl] = self.q_cmd
+        self.data.ctrl[arm.hand_ctrl] = fingers
+        record = np.empty((1, SUBSTEPS, self.model.nsensordata))
+        for k in range(SUBSTEPS):
+            mujoco.mj_step(self.model, self.data)
+            record[0, k] = self.data.sensordata
+        self.sensordata = peak_touch(record, self.scene.sensors)
+        self.t += CONTROL_DT_S
+        if self.renderer is not None and self.t >= self.next_frame - 1e-9:
+            self._grab()
+
+    def palm(self) -> np.ndarray:
+        return self.data.site_xpos[self.scene.arm.palm_site].copy()
+
+    def hand_q(self) -> np.ndarray:
+        """(D,) the hand's actuated joint positions now."""
+        return self.data.actuator_length[self.scene.arm.hand_ctrl].copy()
+
+    def obj_pos(self) -> np.ndarray:
+        return self.data.xpos[self.scene.arm.object_body[self.target]].copy()
+
+    def others_moved(self) -> float:
+        """How far (x-y, m) the objects other than the handled one have moved since the start, the most."""
+        if not self.others:
+            return 0.0
+        return float(np.max(np.linalg.norm(self.data.xpos[self.others, :2] - self.others_start[:, :2], axis=1)))
+
+    def obj_rot(self) -> np.ndarray:
+        return self.data.xmat[self.scene.arm.object_body[self.target]].reshape(3, 3).copy()
+
+    def _pairs(self) -> np.ndarray:
+        c = self.data.contact
+        n = self.data.ncon
+        return np.stack([c.geom1[:n], c.geom2[:n]], -1) if n else np.zeros((0, 2), int)
+
+    def contact(self, geoms_a, geoms_b) -> bool:
+        """Whether any geom of `geoms_a` touches any of `geoms_b` now."""
+        pairs = self._pairs()
+        a, b = np.isin(pairs, geoms_a), np.isin(pairs, geoms_b)
+        return bool(np.any((a[:, 0] & b[:, 1]) | (a[:, 1] & b[:, 0])))
+
+    def touches(self, geoms) -> bool:
+        """Whether the handled object touches any of `geoms` now."""
+        return self.contact([self.obj_geom], geoms)
+
+    def close(self):
+        if self.renderer is not None:
+            self.renderer.close()
+
+
+def _start_qpos(scene: TaskScene, open_: np.ndarray) -> np.ndarray:
+    return manipulator_qpos(scene.model, scene.arm, HOME_Q, open_)
+
+
+def _polyline(points: np.ndarray, speed: float) -> np.ndarray:
+    """(N, 3) positions per control step along the polyline `points` (P, 3) at mean speed `speed`,
+    min-jerk in arc length."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    if arc[-1] < 1e-6:
+        return points[-1:]
+    n = max(int(np.ceil(arc[-1] / speed / CONTROL_DT_S)), 5)
+    s = min_jerk(n) * arc[-1]
+    return np.stack([np.interp(s, arc, points[:, i]) for i in range(3)], -1)
+
+
+def retarget_path(path: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """A demonstrated movement (T, 3) (world m, e.g. a PHMM-synthesised reach) moved onto the robot's
+    own start and end (3,) -> (T, 3): turned about the vertical so that its horizontal chord points
+    along the robot's, shifted to `start`, and what is then left between its end and `end` spread over
+    it in proportion to arc length. The vertical profile (the lift over the table) and the sideways
+    bulge relative to the chord are kept; the endpoints are the robot's exactly."""
+    path = np.asarray(path, np.float64)
+    start, end = np.asarray(start, np.float64), np.asarray(end, np.float64)
+    rel = path - path[0]
+    heading = lambda v: np.arctan2(v[1], v[0]) if np.hypot(v[0], v[1]) > 1e-6 else 0.0
+    turn = heading(end - start) - heading(rel[-1])
+    c, s = np.cos(turn), np.sin(turn)
+    turned = rel @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    frac = arc / arc[-1] if arc[-1] > 1e-9 else np.linspace(0.0, 1.0, len(path))
+    return start + turned + frac[:, None] * (end - start - turned[-1])
+
+
+def move(sim: TaskSim, points: np.ndarray, rot_from: np.ndarray, rot_to: np.ndarray, fingers, speed: float):
+    path = _polyline(points, speed)
+    slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([rot_from, rot_to])))
+    rots = slerp(np.linspace(0.0, 1.0, len(path) + 1)[1:]).as_matrix()
+    for p, r in zip(path, rots):
+        sim.step(p, r, fingers)
+
+
+def upright_axis(obj, rot: np.ndarray) -> np.ndarray:
+    """The object axis (3,) that should stand vertical: its z axis; for a cube, whichever of its axes
+    (signed) is nearest to the vertical (a cube stands on any face)."""
+    if obj.geom_type == "box" and np.ptp(obj.size) < 1e-9:
+        k = int(np.argmax(np.abs(rot[2])))
+        return rot[:, k] * np.sign(rot[2, k])
+    return rot[:, 2]
+
+
+def object_tilt(obj, rot: np.ndarray) -> float:
+    """How far (rad) the object with rotation `rot` (3, 3) is from standing upright (0 for a ball)."""
+    if obj.geom_type == "sphere":
+        return 0.0
+    return float(np.arccos(np.clip(upright_axis(obj, rot)[2], -1.0, 1.0)))
+
+
+def tilt_correction(axis: np.ndarray) -> np.ndarray:
+    """(3, 3) the smallest rotation that turns the unit vector `axis` (3,) to the vertical."""
+    k = np.cross(axis, [0.0, 0.0, 1.0])
+    angle = np.arctan2(np.linalg.norm(k), axis[2])
+    if np.linalg.norm(k) < 1e-9:
+        return np.eye(3)
+    return Rotation.from_rotvec(k / np.linalg.norm(k) * angle).as_matrix()
+
+
+def hold(sim: TaskSim, pos, rot, fingers, seconds: float):
+    for _ in range(int(round(seconds / CONTROL_DT_S))):
+        sim.step(pos, rot, fingers)
+
+
+def ramp_fingers(sim: TaskSim, pos, rot, start: np.ndarray, end: np.ndarray, seconds: float):
+    """The hand's targets linearly from start (D,) to end (D,) over `seconds`, the palm held at (pos, rot)."""
+    for s in np.linspace(0.0, 1.0, int(round(seconds / CONTROL_DT_S)) + 1)[1:]:
+        sim.step(pos, rot, start + s * (end - start))
+
+
+def held_links(sensordata: np.ndarray, sensors: SceneLayout, target: int) -> int:
+    return int(np.sum(sensordata[0, sensors.contact[:, target]] > 0))

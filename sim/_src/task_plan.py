@@ -1,0 +1,261 @@
+"""The planning half of the robot's task controller (issue 21; `sim.task_controller` runs it): the task
+(`TaskSpec`) and its checks, the manipulator scene with the grasp study's sensors (`task_scene`), the
+grasp controller jitted for it, and the MAP §III plan (seed file 000_a44a81cd5fd37a97.txt) turned about
+the vertical to imitate the human hand and checked for reach (batched IK) and collisions at its key
+poses (`reachable_plan`)."""
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import jax
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from lfd_common import as_array, check_choice, check_int, quat_to_matrix
+from sim._src.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, check_grasp_class
+from sim._src.grasp_strategy import TrialParams, controller_step, object_extent, plan_trials
+from sim._src.human_grasps import hand_pose_in_world
+from sim._src.manipulator import (BASE_POS, DEFAULT_OBJECT_XY, DEFAULT_OBJECTS, HOME_Q, manipulator_qpos,
+    manipulator_scene_xml, scene_layout as manipulator_layout)
+from sim._src.manipulator_ik import ArmChain, arm_chain, solve_ik
+from sim._src.person_scene import TableSpec
+from sim._src.robot_hands import HAND_NAMES, SceneLayout, hand_spec
+
+HOLD_S = 0.3                 # the grasp controller's hold after its lift (its study holds 1 s)
+RETRACT_M, RETRACT_UP_M = 0.08, 0.06
+ABOVE_M = 0.12               # the approach ends with a vertical descent from this far above the pre-grasp
+TABLE = TableSpec()
+
+
+class TaskSpec(NamedTuple):
+    """One pick-and-place task.
+
+    objects: grasp-object classes of `sim.grasp_objects` standing on the table (K of them, as
+    `sim.manipulator.manipulator_scene_xml`'s `objects`); object_xy (K, 2) world m; target: index of
+    the object to handle; grasp: the human grasp class (1, 2, 4, 9, 10, 12); hand_rot (3, 3): the
+    human hand's orientation (world; columns the hand axes of `sim.human_hand`), None: the grasp's
+    canonical one (`sim.human_grasps.hand_pose_in_world`, given in the object's frame) as a person
+    sitting where the robot stands would hold it: turned about the vertical so that the canonical side
+    approach points from the arm's base to the object; place_xy (2,) world m: where to put it
+    down; tactile: MAP §III's tactile correction for volar grasps; hand: "barrett" or "karlsruhe".
+    """
+
+    objects: tuple[int, ...] = DEFAULT_OBJECTS
+    object_xy: Any = DEFAULT_OBJECT_XY
+    target: int = 0
+    grasp: int = 1
+    place_xy: Any = (0.1, -0.45)
+    hand_rot: Any = None
+    tactile: bool = True
+    hand: str = "barrett"
+
+
+
+
+# ---------------------------------------------------------------- the scene with the grasp sensors
+
+def _sensor_xml(links: Sequence[str], n_objects: int) -> str:
+    """The grasp scene's sensors (`sim.robot_hands`) for a manipulator scene's objects "object0" ...:
+    touch per link site, contact per (link, object), object and palm frames."""
+    touch = "".join(f'<touch name="touch_{ln}" site="{ln}"/>' for ln in links)
+    contact = "".join(f'<contact name="contact_{ln}_{k}" geom1="{ln}" geom2="object{k}" data="found pos normal" '
+                      f'reduce="mindist" num="1"/>' for ln in links for k in range(n_objects))
+    frames = "".join(f'<framepos name="pos_object{k}" objtype="body" objname="object{k}"/>'
+                     f'<framequat name="quat_object{k}" objtype="body" objname="object{k}"/>' for k in range(n_objects))
+    palm = ('<framepos name="pos_palm" objtype="site" objname="palm_centre"/>'
+            '<framequat name="quat_palm" objtype="site" objname="palm_centre"/>')
+    return f"<sensor>{touch}{contact}{frames}{palm}</sensor>"
+
+
+class TaskScene(NamedTuple):
+    model: mujoco.MjModel
+    arm: Any              # sim.manipulator.ManipulatorLayout
+    sensors: SceneLayout  # the grasp controller's view of the sensors
+    chain: ArmChain
+    robot_geoms: np.ndarray
+    hand_geoms: np.ndarray
+    table_geom: int
+
+
+@functools.lru_cache(maxsize=8)
+def task_scene(hand: str, objects: tuple[int, ...], object_xy: tuple[tuple[float, float], ...]) -> TaskScene:
+    spec = hand_spec(hand)
+    xml = manipulator_scene_xml(hand, objects=objects, object_xy=np.array(object_xy))
+    xml = xml.replace("</mujoco>", _sensor_xml(spec.link_names, len(objects)) + "\n</mujoco>")
+    model = mujoco.MjModel.from_xml_string(xml)
+    arm = manipulator_layout(model, hand)
+    links = spec.link_names
+
+    def sensor(name: str) -> int:
+        return int(model.sensor_adr[model.sensor(name).id])
+
+    sensors = SceneLayout(
+        hand=spec.name, n_links=len(links),
+        touch=np.array([sensor(f"touch_{ln}") for ln in links]),
+        contact=np.array([[sensor(f"contact_{ln}_{k}") for k in range(len(objects))] for ln in links]),
+        object_pos=np.array([sensor(f"pos_object{k}") for k in range(len(objects))]),
+        object_quat=np.array([sensor(f"quat_object{k}") for k in range(len(objects))]),
+        palm_pos=sensor("pos_palm"), palm_quat=sensor("quat_palm"),
+        object_qpos=arm.object_qpos, object_body=arm.object_body, wrist_qpos=np.zeros(0, int),
+        hand_qpos=np.array([int(model.jnt_qposadr[model.actuator_trnid[a, 0]]) for a in arm.hand_ctrl]),
+        n_ctrl=model.nu, link_finger=spec.link_finger,
+        fingertip_site=np.array([model.site(f"{f.name}_tip").id for f in spec.fingers]))
+    robot_geoms = np.flatnonzero(model.geom_contype == 2)
+    hand_geoms = np.array([model.geom(ln).id for ln in links])
+    return TaskScene(model, arm, sensors, arm_chain(model, "palm_centre"), robot_geoms, hand_geoms,
+                     model.geom("table").id)
+
+
+@functools.lru_cache(maxsize=8)
+def grasp_controller(hand: str, n_objects: int):
+    """The grasp controller jitted for the sensor layout of a scene with `n_objects` objects (the layout
+    depends only on the hand and the number of objects)."""
+    layout = task_scene(hand, (GRASP_CLASSES[0],) * n_objects,
+                    tuple((0.3 * k, -0.4) for k in range(n_objects))).sensors
+    return jax.jit(functools.partial(controller_step, layout=layout))
+
+
+# ---------------------------------------------------------------- checks at the boundary
+
+def check_spec(spec: TaskSpec) -> TaskSpec:
+    if not isinstance(spec, TaskSpec):
+        raise ValueError(f"spec: expected a TaskSpec, got {type(spec).__name__}")
+    objects = tuple(int(check_choice(g, "objects", GRASP_CLASSES)) for g in spec.objects)
+    if not objects:
+        raise ValueError("objects: at least one object is needed")
+    xy = as_array(spec.object_xy, "object_xy", shape=(len(objects), 2))
+    target = check_int(spec.target, "target", min_value=0, max_value=len(objects) - 1)
+    grasp = check_grasp_class(spec.grasp, "grasp")
+    place = as_array(spec.place_xy, "place_xy", shape=(2,))
+    hand_rot = None
+    if spec.hand_rot is not None:
+        hand_rot = as_array(spec.hand_rot, "hand_rot", shape=(3, 3))
+        if np.abs(hand_rot.T @ hand_rot - np.eye(3)).max() > 1e-4 or np.linalg.det(hand_rot) <= 0:
+            raise ValueError("hand_rot: expected a rotation matrix (orthonormal, det +1)")
+    if not isinstance(spec.tactile, (bool, np.bool_)):
+        raise ValueError(f"tactile: expected a bool, got {spec.tactile!r}")
+    hand = check_choice(spec.hand, "hand", HAND_NAMES)
+    return TaskSpec(objects, xy, target, grasp, place, hand_rot, bool(spec.tactile), hand)
+
+
+def on_table(xy: np.ndarray, margin: float = 0.03) -> bool:
+    x, y = xy
+    return (abs(x) <= TABLE.half_width - margin) and (TABLE.far_y + margin <= y <= TABLE.near_y - margin)
+
+
+# ---------------------------------------------------------------- planning
+
+def _rot_z(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+YAW_STEPS_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0)
+# downward tilts of the approach (`plan_trials`' tilts_deg), tried at every yaw after the plan's own (0):
+# near the arm's base a level side approach to a short object puts the wrist into the table, and the forearm
+# over a neighbour; validation demonstrations of their own seed (README, issue 21): Abducted Thumb tasks
+# reachable 4 / 14 level, 13 / 14 with these
+TILT_STEPS_DEG = (0.0, 15.0, 30.0)
+
+
+def _preferred_yaw(grasp: int, hand_rot: np.ndarray | None, object_xy: np.ndarray) -> float:
+    """The rotation about the vertical that best maps the canonical human hand onto `hand_rot`:
+    argmax_psi trace(hand_rot^T Rz(psi) R_canonical). None: the canonical hand of a demonstrator
+    reaching from the robot's seat, i.e. the canonical grasp frame's +y (the side approach's direction)
+    turned to point from the arm's base to the object."""
+    if hand_rot is None:
+        dx, dy = object_xy - BASE_POS[:2]
+        return float(np.arctan2(dy, dx) - np.pi / 2)
+    m = quat_to_matrix(hand_pose_in_world(grasp)[1]) @ hand_rot.T
+    return float(np.arctan2(m[0, 1] - m[1, 0], m[0, 0] + m[1, 1]))
+
+
+class TaskPlan(NamedTuple):
+    params: TrialParams     # world frame, B = 1
+    rot: np.ndarray         # (3, 3) palm rotation (world)
+    grasp_palm: np.ndarray  # (3,) where the palm is expected to close (world)
+    obj_centre: np.ndarray  # (3,) the object's centre (world)
+    yaw_deg: float          # the plan's turn away from the preferred yaw
+    tilt_deg: float         # the approach's downward tilt (`TILT_STEPS_DEG`)
+
+
+def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float, tilt_deg: float) -> TaskPlan:
+    """`plan_trials`' plan (object frame, B = 1, tilted by `tilt_deg`) turned by `psi` about the vertical
+    and put on the object."""
+    turn = _rot_z(psi)
+    obj = GRASP_OBJECTS[spec.objects[spec.target]]
+    ox, oy = spec.object_xy[spec.target]
+    shift = np.array([ox, oy, TABLE.top_z])   # the plan is made for the handled object (`plan_trials` objects)
+    goal = params.goal[0] @ turn.T + shift
+    start = params.start[0] @ turn.T + shift
+    approach = turn @ params.approach[0]
+    rot = turn @ Rotation.from_euler("ZXY", params.wrist[0]).as_matrix()
+    # the palm stops at the standoff (open-loop) or at about the object's surface (volar)
+    standoff = params.standoff[0] if not params.volar[0] else float(object_extent(spec.objects[spec.target], approach))
+    world = params._replace(goal=goal[None].astype(np.float32), start=start[None].astype(np.float32),
+                            approach=approach[None].astype(np.float32),
+                            obj=np.array([spec.target], np.int32))
+    centre = np.array([ox, oy, TABLE.top_z + obj.rest_height_m])
+    return TaskPlan(world, rot, goal - standoff * approach, centre, yaw_deg, tilt_deg)
+
+
+def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) -> tuple[TaskPlan, bool]:
+    """The plan of the first (tilt, yaw) in `TILT_STEPS_DEG` x `YAW_STEPS_DEG` (turns from the preferred
+    yaw; the level approach at every yaw first) whose key poses (`key_poses`) the arm reaches (one batched
+    IK call for all) without touching another object, or the table with anything but the hand
+    (`collides`); and whether there is one (else the level, preferred one)."""
+    n_tilt = len(TILT_STEPS_DEG)
+    params, _ = plan_trials(spec.hand, [spec.grasp] * n_tilt, np.zeros((n_tilt, 2)), TILT_STEPS_DEG,
+                            [spec.tactile] * n_tilt, [seed] * n_tilt, mapping=mapping, hold_s=HOLD_S,
+                            objects=[spec.objects[spec.target]] * n_tilt)
+    psi0 = _preferred_yaw(spec.grasp, spec.hand_rot, spec.object_xy[spec.target])
+    plans = [_plan(spec, jax.tree.map(lambda a, i=i: a[i:i + 1], params), psi0 + np.radians(d), d, t)
+             for i, t in enumerate(TILT_STEPS_DEG) for d in YAW_STEPS_DEG]
+    poses = np.stack([key_poses(p, spec.place_xy) for p in plans])          # (tilts x yaws, P, 3)
+    n_plan, n_pose = poses.shape[:2]
+    rots = np.repeat(np.stack([p.rot for p in plans]), n_pose, axis=0)
+    ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_plan * n_pose, 1)), pos_tol=5e-3,
+                  rot_tol=0.05)
+    ok = np.asarray(ik.reachable).reshape(n_plan, n_pose).all(1)
+    q = np.asarray(ik.q, float).reshape(n_plan, n_pose, -1)
+    for k in np.flatnonzero(ok):
+        if not collides(scene, spec.target, q[k], plans[k].params):
+            return plans[k], True
+    return plans[0], False
+
+
+def collides(scene: TaskScene, target: int, q: np.ndarray, params: TrialParams) -> bool:
+    """Whether the robot at any of the arm configurations q (P, 7) (fingers open) touches an object other
+    than `target` (at their start positions), or the table with a part other than the hand."""
+    model, data = scene.model, mujoco.MjData(scene.model)
+    others = np.array([model.body_geomadr[b] for k, b in enumerate(scene.arm.object_body) if k != target], int)
+    arm_geoms = np.setdiff1d(scene.robot_geoms, scene.hand_geoms)
+    base = manipulator_qpos(model, scene.arm, HOME_Q, params.open_[0].astype(float))
+    for qk in q:
+        data.qpos[:] = base
+        data.qpos[scene.arm.arm_qpos] = qk
+        mujoco.mj_forward(model, data)
+        pairs = np.array([[c.geom1, c.geom2] for c in data.contact[:data.ncon]], int).reshape(-1, 2)
+        robot = np.isin(pairs, scene.robot_geoms)
+        hit_other = (robot[:, 0] & np.isin(pairs[:, 1], others)) | (robot[:, 1] & np.isin(pairs[:, 0], others))
+        arm = np.isin(pairs, arm_geoms)
+        table = pairs == scene.table_geom
+        hit_table = (arm[:, 0] & table[:, 1]) | (arm[:, 1] & table[:, 0])
+        if np.any(hit_other | hit_table):
+            return True
+    return False
+
+
+def key_poses(plan: TaskPlan, place_xy: np.ndarray) -> np.ndarray:
+    """(7, 3) palm positions to check: above the pre-grasp, pre-grasp, grasp, lift, above the place, at
+    the place, retract."""
+    a = plan.params.approach[0].astype(float)
+    lift = plan.grasp_palm + [0.0, 0.0, 0.10]
+    carry = lift + np.append(place_xy - plan.obj_centre[:2], 0.0)
+    placed = carry - [0.0, 0.0, 0.10]
+    retract = placed - RETRACT_M * a + [0.0, 0.0, RETRACT_UP_M]
+    pre = plan.params.start[0]
+    return np.stack([pre + [0.0, 0.0, ABOVE_M], pre, plan.grasp_palm, lift, carry, placed, retract])
