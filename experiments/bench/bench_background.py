@@ -40,9 +40,10 @@ import os
 
 import numpy as np
 
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.config import markdown_table, parse_config
-from experiments.data.cdnet import CDNET_DIR, load_cdnet, score_cdnet
+from experiments.peers.background import f1_stage
+from experiments.data.cdnet import CDNET_DIR, load_cdnet
 from lfd_common import enable_compilation_cache
 
 TRAIN_FRAMES = 469  # CDnet highway's unlabelled learning frames
@@ -109,55 +110,6 @@ def load_frames(cfg: BenchConfig):
     return video.frames, video.groundtruth, video.roi, "cdnet_highway"
 
 
-def opencv_masks(frames_rgb: np.ndarray, make, learning_rate: float = -1.0) -> np.ndarray:
-    """Foreground (T, H, W) bool of an OpenCV subtractor (`make()` builds it) applied frame by frame
-    (BGR input as OpenCV expects; 255 = foreground, 127 = shadow = background)."""
-    sub = make()
-    out = np.empty(frames_rgb.shape[:3], bool)
-    for t, frame in enumerate(frames_rgb):
-        out[t] = sub.apply(np.ascontiguousarray(frame[..., ::-1]), learningRate=learning_rate) == 255
-    return out
-
-
-def _score(name: str, fg, labels, roi, first: int) -> dict:
-    s = score_cdnet(np.asarray(fg)[first - 1:], labels[first - 1:], roi)
-    print(f"{name:28s} precision {s.precision:.3f} recall {s.recall:.3f} F1 {s.f1:.3f}", flush=True)
-    return {"precision": s.precision, "recall": s.recall, "f1": s.f1}
-
-
-def f1_stage(cfg: BenchConfig, frames, labels, roi) -> dict:
-    """Precision, recall and F1 of every model on frames eval_first..eval_last (module docstring)."""
-    import cv2
-
-    from hog_jax import median3
-    from hog_jax.video import BackgroundOptions, run_background
-
-    def ours(**options):
-        return lambda: run_background(frames, options=BackgroundOptions(**options))[1]
-
-    def opencv(make, rate=-1.0):
-        return lambda: opencv_masks(frames, make, rate)
-
-    def filtered(masks):  # GRASP's 3 x 3 median filter, three times (`hog_jax.median3`), frame by frame
-        return lambda: np.concatenate([np.asarray(median3(c, 3)) for c in np.array_split(masks(), 16)])
-
-    mog2, knn = cv2.createBackgroundSubtractorMOG2, cv2.createBackgroundSubtractorKNN
-    runs = {"ours": ours(), "ours_matched_rule": ours(decision="matched"), "mog2": opencv(mog2),
-            "mog2_alpha": opencv(mog2, BackgroundOptions().alpha), "knn": opencv(knn)}
-    if cfg.ablations:
-        rate = 1.0 / 500  # MOG2's long-run learning rate: 1 / its default history
-        runs.update({
-            "ablation_rho_alpha_eta": ours(rho="alpha_eta"),
-            "ablation_no_variance_floor": ours(min_variance=1e-6),
-            "ablation_alpha_mog2_rate": ours(alpha=rate),
-            "ablation_alpha_mog2_rate_matched_rule": ours(alpha=rate, decision="matched"),
-            "ablation_median3_ours": filtered(ours()),
-            "ablation_median3_ours_alpha_mog2_rate": filtered(ours(alpha=rate)),
-            "ablation_median3_mog2": filtered(opencv(mog2)),
-        })
-    return {name: _score(name, masks(), labels, roi, cfg.eval_first) for name, masks in runs.items()}
-
-
 def _mog2_loop(frames_bgr: np.ndarray):
     import cv2
 
@@ -205,7 +157,7 @@ def main(argv=None):
     print(f"{source}: {len(frames)} frames of {frames.shape[2]} x {frames.shape[1]}; OpenCV threads "
           f"{cv2.getNumThreads()}", flush=True)
     speed = speed_stage(cfg, frames)
-    f1 = f1_stage(cfg, frames, labels, roi)
+    f1 = f1_stage(frames, labels, roi, cfg.eval_first, cfg.ablations)
     out = {**speed, "f1_ours": f1["ours"]["f1"], "f1_ours_matched_rule": f1["ours_matched_rule"]["f1"],
            "f1_mog2": f1["mog2"]["f1"], "f1_mog2_alpha": f1["mog2_alpha"]["f1"], "f1_knn": f1["knn"]["f1"],
            "data": source, "eval_frames": [cfg.eval_first, cfg.eval_last], "fps_frames": cfg.fps_frames,

@@ -37,7 +37,7 @@ import numpy as np
 
 import phmm_jax as P
 from experiments.bench.online_stage import online_stage
-from experiments.bench.timing import Timing, time_call, time_interleaved
+from experiments.timing import Timing, time_call, time_interleaved
 from experiments.config import markdown_table, parse_config
 from experiments.data.reaching import movements_at, raster_targets
 from lfd_common import enable_compilation_cache

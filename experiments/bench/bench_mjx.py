@@ -29,7 +29,7 @@ import os
 import numpy as np
 
 import sim
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.config import markdown_table, parse_config
 from lfd_common import enable_compilation_cache
 from sim.grasping import SUBSTEPS, rollout_grasps, warp_status

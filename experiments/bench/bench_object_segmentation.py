@@ -31,8 +31,8 @@ import cv2
 import jax
 import numpy as np
 
-from experiments.bench.object_peer import peer_object_masks
-from experiments.bench.timing import time_interleaved
+from experiments.peers.object_peer import peer_object_masks
+from experiments.timing import time_interleaved
 from experiments.config import markdown_table, parse_config
 from lfd_common import enable_compilation_cache
 

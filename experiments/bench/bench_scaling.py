@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.config import markdown_table, parse_config
 from lfd_common import enable_compilation_cache
 

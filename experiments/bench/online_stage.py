@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import phmm_jax as P
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.data.tabletop import raster_targets, resample, sample_subject, simulate
 from lfd_common import enable_compilation_cache
 from phmm_jax import online_step_batch_jit, online_step_jit

@@ -17,7 +17,7 @@ import numpy as np
 
 import hog_jax
 import sim
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.data.grasp_tests import skin_training_pixels
 from experiments.grasp_recognition.config import PRESETS, Config
 from experiments.grasp_recognition.recogniser import build_recogniser, features

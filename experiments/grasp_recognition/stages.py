@@ -10,7 +10,7 @@ import numpy as np
 
 import hog_jax
 import sim
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.config import StageResult, parse_config, progress
 from experiments.data.grasp_database import VALIDATION_SHAPE, concatenate_databases, randomized_views
 from experiments.data.grasp_tests import random_set, sequence_set, skin_training_pixels

@@ -79,7 +79,7 @@ def _track_path(cfg: Config, settings, demo: Demo):
 def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> Tracked:
     """The recording through the video front end of `experiments.lfd_demonstration` (cached per
     demonstration and front-end code)."""
-    from experiments.lfd_demonstration.stages import front_end, hand_tracks
+    from experiments.lfd_demonstration.front import front_end, hand_tracks
 
     path = _track_path(cfg, settings, demo)
     if path.exists():

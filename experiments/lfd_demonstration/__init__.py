@@ -5,7 +5,7 @@
 Long rendered recordings (`experiments.data.video.long_scripts`) through the video front end
 (`hog_jax.video.segment_stereo`: masks and the tracked hand in both views); the object in the hand from
 gradient-phase differences (`hog_jax.video.segment_objects`, eqs. 1-4, Fig. 3) beside an OpenCV peer
-(StereoSGBM + DIS optical flow, `experiments.bench.object_peer`); the per-frame "object in hand"
+(StereoSGBM + DIS optical flow, `experiments.peers.object_peer`); the per-frame "object in hand"
 filtered over time into pick-up / put-down events (`hog_jax.video.periods_in_hand`, Fig. 8) and matched to
 the ground truth.
 

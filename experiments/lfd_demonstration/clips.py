@@ -19,6 +19,7 @@ from experiments.config import progress
 from experiments.data import video
 from experiments.data.oac import OACData
 from experiments.lfd_demonstration.config import Config
+from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, pipeline_features,
                                                     renderer_features, segment_frames)
 from experiments.oac_recognition import config as oac_config
@@ -44,13 +45,13 @@ def source_digest() -> str:
     entry point gets the same key), so an edit of any of them never reuses stale features (edits of
     the tables, labels, report or figures keep the cache)."""
     import experiments.lfd_demonstration.features as features
-    import experiments.lfd_demonstration.stages as stages
+    import experiments.lfd_demonstration.front as stages
     import experiments.video_segmentation.stages as front
     import hog_jax
 
-    package = sorted(Path(hog_jax.__file__).parent.glob("*.py"))
+    package = sorted(Path(hog_jax.__file__).parent.rglob("*.py"))
     parts = [features, clip_features, stages.front_end, stages.hand_tracks, stages.recording_objects,
-             stages.hand_width, front.skin_stage, front.background_options, front.segmentation_start, front._pad,
+             stages.hand_width, front.skin_stage, front.background_options, front.segmentation_start, front.pad,
              front.camera_of]
     text = "".join(f.read_text() for f in package) + "".join(inspect.getsource(m) for m in parts)
     return hashlib.sha1(text.encode()).hexdigest()
@@ -84,8 +85,6 @@ def clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple
     """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found): the
     clip is cut after its put-down (the front end is causal), run through `recording_objects`; a clip
     whose hand the front end never finds keeps zero pipeline features (flagged, not dropped)."""
-    from experiments.lfd_demonstration.stages import recording_objects
-
     path = _cache_path(cfg, settings, spec, key)
     if path.exists():
         return _load(path)

@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.bench.object_peer import window  # noqa: E402
+from experiments.peers.object_peer import window  # noqa: E402
 from experiments.data.video.settings import ACTIONS, OBJECTS  # noqa: E402
 
 

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 import phmm_jax as P
-from experiments.bench.timing import time_call
+from experiments.timing import time_call
 from experiments.config import progress
 from experiments.real_arm_actions import methods as mt
 from experiments.real_arm_actions.config import METHODS

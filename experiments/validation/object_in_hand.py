@@ -12,10 +12,10 @@ import jax, numpy as np
 import sim, hog_jax
 from experiments.data import video
 from experiments.lfd_demonstration.config import Config
-from experiments.lfd_demonstration.stages import front_end, hand_tracks
+from experiments.lfd_demonstration.front import front_end, hand_tracks
 from experiments.lfd_demonstration.evaluate import hand_width, match_events, pooled_iou, truth_windows
 from experiments.video_segmentation.stages import skin_stage
-from experiments.bench.object_peer import peer_object_masks
+from experiments.peers.object_peer import peer_object_masks
 from hog_jax.video import HAND
 from hog_jax.video import SKIN, PERSON, OBJECT
 from lfd_common import enable_compilation_cache

@@ -12,10 +12,10 @@ import numpy as np
 
 import hog_jax
 import sim
-from experiments.bench.bench_background import BenchConfig, f1_stage
 from experiments.config import StageResult, parse_config, progress
 from experiments.data import video
 from experiments.data.cdnet import load_cdnet
+from experiments.peers.background import f1_stage
 from experiments.video_segmentation import plots
 from experiments.video_segmentation.config import PRESETS, Config
 from experiments.video_segmentation.evaluate import METHODS, SKIN_ONLY, TRACKED, evaluate_clip
@@ -147,8 +147,7 @@ def cdnet_stage(cfg: Config) -> StageResult:
         print(f"note: {cfg.cdnet_dir} not found; the real-video part is skipped")
         return StageResult({"real_skipped": True}, report="Real video: skipped (no CDnet folder).")
     clip = load_cdnet(cfg.cdnet_dir, 1, cfg.cdnet_last)
-    scores = f1_stage(BenchConfig(cdnet_dir=cfg.cdnet_dir, eval_last=cfg.cdnet_last, ablations=False),
-                      clip.frames, clip.groundtruth, clip.roi)
+    scores = f1_stage(clip.frames, clip.groundtruth, clip.roi)
     metrics = {"real_f1_ours": scores["ours"]["f1"], "real_f1_mog2": scores["mog2"]["f1"],
                "real_f1_knn": scores["knn"]["f1"], "real_skipped": False, "real_eval_frames": cfg.cdnet_last - 469,
                "real_scores": scores}

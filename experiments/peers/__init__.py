@@ -1,0 +1,1 @@
+"""Peers and baselines that several studies and benchmarks run beside ours."""
