@@ -4,28 +4,19 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import sys
 
 import numpy as np
 
 import sim
 from experiments.data.oac.settings import N_CLASSES, OACData, OACSettings, VERSION, draw_persons
 from experiments.data.oac.views import Views, masked_hog, record
-from lfd_common import cache_dir, check_int, write_npz
+from lfd_common import cache_dir, check_int, source_digest, write_npz
 
 
 def _cache_path(settings: OACSettings):
     """Keyed by every setting, this generator's source and the hand model's source and postures, so a
     change to the simulation never reuses stale renders."""
-    import inspect
-
-    import sim.human_grasps
-    import sim.human_hand
-
-    ours = [sys.modules[f"experiments.data.oac.{m}"] for m in ("settings", "motion", "grips", "scene", "views",
-                                                                       "generate")]
-    code = hashlib.sha1("".join(inspect.getsource(m) for m in (*ours, sim.human_hand,
-                                                               sim.human_grasps)).encode()).hexdigest()
+    code = "".join(source_digest(package) for package in ("experiments.data.oac", "sim"))
     key = json.dumps({"version": VERSION, "code": code, **dataclasses.asdict(settings)}, sort_keys=True)
     digest = hashlib.sha1(key.encode()).hexdigest()[:16]
     return cache_dir("oac") / f"oac_{digest}.npz"
