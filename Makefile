@@ -20,7 +20,7 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test,bench,mocap]'
+	$(PY) -m pip install --quiet -e '.[test,bench,mocap,docs]'
 	rm -f $(VENV)/.installed-*
 	touch $@
 
@@ -36,6 +36,18 @@ bench: $(STAMP)
 		m=$$(echo "$$f" | sed 's#/#.#g; s#\.py$$##'); \
 		echo "== $$m"; $(PY) -m "$$m" $(BENCH_ARGS); \
 	done
+
+# The documentation site (MkDocs, Material theme, API reference from the docstrings) into site/;
+# --strict turns every warning into an error.
+.PHONY: docs results
+docs: $(STAMP)
+	$(PY) -m mkdocs build --strict --site-dir site
+
+# docs/results.md, docs/benchmarks.md and README's results table, generated from the run folders
+# under RUNS (each study's metrics.json / bench.json, config.json, run.json, report.md).
+RUNS ?= runs
+results: $(STAMP)
+	$(PY) -m experiments.site_results $(RUNS)
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache

@@ -1,9 +1,28 @@
-"""What every lfd-jax library shares, once: input validation, padded batches, log-space numerics,
-rotations (quaternions (w, x, y, z), intrinsic Z-Y'-X'' Euler angles), model persistence, JAX set-up and
-batches sharded over a device mesh (`lfd_common.sharding`, the `mesh=` option of every batch entry point).
+"""lfd_common: what every lfd-jax library shares, once.
 
 The libraries (`phmm_jax`, `hog_jax`, `crf_jax`, `sim`) never import `experiments` or each other for
-plumbing, so the little they share lives here.
+plumbing, so the little they share lives here:
+
+- Input validation at public boundaries (`ValueError` naming the argument): `as_array`,
+  `check_int`, `check_real`, `check_choice`; padded batches: `pad_sequences`, `frame_mask`.
+- Log-space numerics with finite gradients at log 0: `safe_log`, `safe_logsumexp`,
+  `safe_logaddexp`, `NEG_INF`, `solve_spd`; the compute dtype: `float_dtype`.
+- Rotations (quaternions (w, x, y, z), intrinsic Z-Y'-X'' Euler angles): `quat_to_matrix`,
+  `matrix_to_quat`, `euler_zyx_to_quat`, `quat_to_euler_zyx`, `axis_angle_to_matrix`.
+- Model persistence (kind + structure JSON + arrays, checked on load): `save_model`, `load_model`,
+  `ModelCodec`, `ArraySpec`; named arrays: `save_arrays`, `load_arrays`, `read_file`.
+- Batches sharded over a device mesh (the `mesh=` option of every batch entry point): `batch_mesh`,
+  `check_mesh`, `shard`, `unshard`, `map_batch`, `sharded_call`.
+- One content-keyed cache (`cached`, `Cache`) and JAX set-up (`cache_dir`, `enable_compilation_cache`).
+
+Example:
+    ```python
+    import numpy as np
+    from lfd_common import check_real, pad_sequences
+
+    X, lengths = pad_sequences([np.zeros((5, 3)), np.ones((7, 3))])  # X (2, 7, 3), lengths [5, 7]
+    sigma = check_real(0.1, "sigma", min_value=0.0)                   # ValueError naming "sigma" if bad
+    ```
 """
 from lfd_common._src.batch import frame_mask, pad_sequences
 from lfd_common._src.cache import (Cache, CacheWarning, cache_disabled, cached, clear_source_digests,

@@ -1,34 +1,45 @@
-"""MuJoCo / MJX side of lfd-jax: scenes written as MJCF here, batched rollouts, offscreen rendering.
+"""sim: the MuJoCo / MJX side of lfd-jax: scenes written as MJCF in code, batched rollouts, offscreen
+rendering, and the robot that repeats a demonstration.
 
-Importing `sim` has no side effects: call `sim.setup_rendering()` (EGL by default) before rendering
-with `mujoco.Renderer` directly; `sim.render_frame` and `sim.grasp_views.GraspRenderer` call it.
+Four subpackages, by concept:
 
-The demonstration scene (issue 18): `person_scene_xml(look, rig, objects)` writes a seated person
-(`PersonLook`), a table, objects and a textured wall filmed by a rectified stereo pair (`StereoRig`);
-`PersonScene` poses it per frame (`ScenePose`) and renders RGB and part labels of both views
-(`PART_NAMES`, `PART_LABELS`: background, person, hand skin, face skin, objects).
+* `sim.hands`: the human hand and its six reference grasps, the Barrett-like and Karlsruhe-like robot
+  hands, virtual fingers (GRASP §III-B, MAP §III-IV).
+* `sim.grasping`: grasp classes and objects, the MAP §III grasp strategy, batched grasp rollouts on
+  MuJoCo or MJX, the rendered view database of GRASP §III-B.
+* `sim.robot`: a WAM-like 7-DoF arm with a robot hand, its inverse kinematics, the pick-and-place task
+  (`run_task`); the HOAP-3-like arm of PHMM §IV.
+* `sim.scenes`: the demonstration scene (a seated person, a table, objects, a stereo pair), the
+  table-top drop scene, offscreen rendering, batched MJX rollouts.
 
-The robot (issue 21): `manipulator_scene_xml(hand)` writes a Barrett-WAM-like 7-DoF arm on a pedestal
-at that table, carrying the Barrett-like or Karlsruhe-like hand of `sim.robot_hands` on its flange,
-with joint-space position servos, gravity compensation and a few free objects; `manipulator_model`
-compiles it with its `ManipulatorLayout` (qpos/ctrl indices), `manipulator_qpos` sets a pose.
-`arm_chain(model)` reads the arm's kinematic chain (`ArmChain`) to the palm site;
-`forward_kinematics(chain, q)` and the batched damped-least-squares `solve_ik(chain, target_pos,
-target_rot, q0)` -> `IKResult(q, pos_error, rot_error, reachable)` run in JAX. `run_task(TaskSpec(...))`
--> `TaskResult` picks an object up with the MAP §III grasp strategy, carries it to a place and puts it
-down (`sim.task_controller`).
+The names used most are also importable from `sim` itself. Importing `sim` has no side effects: call
+`sim.setup_rendering()` (EGL by default) before rendering with `mujoco.Renderer` directly;
+`sim.render_frame`, `sim.PersonScene` and `sim.grasping.GraspRenderer` call it themselves.
+
+Papers: MAP is Romero, Kjellström, Kragic 2009 (markerless human-to-robot grasp mapping); GRASP is
+Kjellström, Romero, Kragic 2008 (IROS, visual recognition of grasps); PHMM is Herzog, Ude, Krüger 2008
+(Humanoids, parametric HMMs); LFD is Kjellström, Kragic 2009; LEVELSET is Martínez, Romero,
+Kjellström, Kragic 2008 (technical report).
+
+Examples:
+    >>> import sim
+    >>> spec = sim.TaskSpec(objects=(1,), object_xy=[(0.0, -0.40)], grasp=1, place_xy=(0.2, -0.40))
+    >>> result = sim.run_task(spec)  # doctest: +SKIP
+    >>> result.success, result.failed_stage  # doctest: +SKIP
+    (True, '')
 """
 from sim import grasping, hands, robot, scenes
-from sim.robot import (ArmChain, IKResult, ManipulatorLayout, TaskResult, TaskSpec, arm_chain,
-                       forward_kinematics, manipulator_model, manipulator_qpos, manipulator_scene_xml,
-                       run_task, solve_ik)
+from sim.robot import (ArmChain, IKResult, ManipulatorLayout, TaskOptions, TaskResult, TaskSpec, arm_chain,
+                       forward_kinematics, manipulator_model, manipulator_qpos, manipulator_scene_xml, run_task,
+                       solve_ik)
 from sim.scenes import (PART_LABELS, PART_NAMES, PersonLook, PersonScene, ScenePose, StereoRig, TableSpec,
                         batched_rollout, person_scene_xml, render_frame, setup_rendering, tabletop_drop_scene,
                         worlds_from_qpos)
 
 __all__ = [
-    "ArmChain", "IKResult", "ManipulatorLayout", "PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene", "ScenePose",
-    "StereoRig", "TableSpec", "TaskResult", "TaskSpec", "arm_chain", "batched_rollout", "forward_kinematics", "manipulator_model",
-    "manipulator_qpos", "manipulator_scene_xml", "person_scene_xml", "render_frame", "run_task", "setup_rendering", "solve_ik", "tabletop_drop_scene",
+    "ArmChain", "IKResult", "ManipulatorLayout", "PART_LABELS", "PART_NAMES", "PersonLook", "PersonScene",
+    "ScenePose", "StereoRig", "TableSpec", "TaskOptions", "TaskResult", "TaskSpec", "arm_chain",
+    "batched_rollout", "forward_kinematics", "manipulator_model", "manipulator_qpos", "manipulator_scene_xml",
+    "person_scene_xml", "render_frame", "run_task", "setup_rendering", "solve_ik", "tabletop_drop_scene",
     "worlds_from_qpos",
 ]

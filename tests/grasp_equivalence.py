@@ -17,7 +17,7 @@ import numpy as np
 
 from sim.grasping import GRASP_CLASSES
 from sim.grasping import GraspOutcomes, rollout_grasps
-from sim.grasping import TrialParams, plan_trials
+from sim.grasping import PlanOptions, TrialParams, plan_trials
 from tests.xla_level import run_module
 
 # The trials: one per grasp class, the 1 s hold shortened to this on both backends (on the shared
@@ -30,7 +30,7 @@ def equivalence_trials(hand: str) -> tuple[TrialParams, np.ndarray]:
     """One trial per grasp class of `hand`, no pose error, tactile correction on; (params, object starts)."""
     b = len(GRASP_CLASSES)
     return plan_trials(hand, np.asarray(GRASP_CLASSES), np.zeros((b, 2)), np.zeros(b), np.ones(b, bool),
-                       np.arange(b), hold_s=EQUIVALENCE_HOLD_S)
+                       np.arange(b), options=PlanOptions(hold_s=EQUIVALENCE_HOLD_S))
 
 
 def native_run(hand: str) -> tuple[TrialParams, np.ndarray, GraspOutcomes]:

@@ -1,6 +1,8 @@
 """hog_jax.colour_models: BIC (eq. 8) chooses the true number of components, the parameter count and
 BIC against a float64 reference, person/background models from frames, bad input. Every fit shares one shape
 (N = 2000 points in 3-D, candidates 1-4, 2 starts), so one compilation serves the file."""
+import dataclasses
+
 import chex
 import jax
 import numpy as np
@@ -8,11 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hog_jax.video import (REGIONS, fit_gmm_bic, fit_person_background_models, gmm_n_params,
+from hog_jax.video import (BICOptions, fit_gmm_bic, fit_person_background_models, gmm_n_params,
     region_log_likelihoods)
 
 N = 2000
-FIT = {"candidates": (1, 2, 3, 4), "n_init": 2, "n_iter": 60}
+FIT = BICOptions(candidates=(1, 2, 3, 4), n_init=2, n_iter=60)
 CENTRES = np.array([[0.2, 0.2, 0.2], [0.8, 0.3, 0.3], [0.3, 0.8, 0.3], [0.3, 0.3, 0.8]])
 
 
@@ -25,7 +27,7 @@ def _mixture(n_components, seed, n=N, spread=0.03):
 @pytest.mark.parametrize("true", [1, 2, 3])
 def test_bic_picks_the_true_number_of_components(true):
     x = _mixture(true, seed=true)
-    gmm, scores = fit_gmm_bic(jax.random.key(true), x, **FIT)
+    gmm, scores = fit_gmm_bic(jax.random.key(true), x, FIT)
     assert gmm.log_weights.shape == (true,)
     assert int(scores.candidates[np.argmin(np.asarray(scores.bic))]) == true
     chex.assert_shape([scores.bic, scores.log_likelihood, scores.n_params], (4,))
@@ -48,7 +50,7 @@ def _ref_log_likelihood(x, weights, means, covs):
 def test_bic_against_a_float64_reference():
     """Eq. 8 with the exact count: -2 ln L + k ln N recomputed in float64 for the returned mixture."""
     x = _mixture(2, seed=7)
-    gmm, scores = fit_gmm_bic(jax.random.key(0), x, **FIT)
+    gmm, scores = fit_gmm_bic(jax.random.key(0), x, FIT)
     t = gmm.log_weights.shape[0]
     chols = np.asarray(gmm.chols, np.float64)
     ll = _ref_log_likelihood(x.astype(np.float64), np.exp(np.asarray(gmm.log_weights, np.float64)),
@@ -68,8 +70,8 @@ def test_parameter_counts():
 
 def test_tr_count_shifts_every_bic_by_ln_n():
     x = _mixture(3, seed=3)
-    g1, exact = fit_gmm_bic(jax.random.key(1), x, **FIT)
-    g2, tr = fit_gmm_bic(jax.random.key(1), x, param_count="tr", **FIT)
+    g1, exact = fit_gmm_bic(jax.random.key(1), x, FIT)
+    g2, tr = fit_gmm_bic(jax.random.key(1), x, dataclasses.replace(FIT, param_count="tr"))
     np.testing.assert_allclose(np.asarray(tr.bic) - np.asarray(exact.bic), np.log(N), atol=1e-2)  # float32 BICs
     assert g1.log_weights.shape == g2.log_weights.shape
 
@@ -91,7 +93,7 @@ def _scene(seed=0, T=8, H=30, W=40):
 @pytest.fixture(scope="module")
 def scene_fit():
     frames, masks = _scene()
-    return frames, masks, fit_person_background_models(jax.random.key(0), frames, masks, max_pixels=N, **FIT)
+    return frames, masks, fit_person_background_models(jax.random.key(0), frames, masks, FIT, max_pixels=N)
 
 
 def test_person_and_background_models_from_frames(scene_fit):
@@ -99,7 +101,7 @@ def test_person_and_background_models_from_frames(scene_fit):
     assert masks.sum() >= N and (~masks).sum() >= N
     assert (fit.structure.n_person_components, fit.structure.n_background_components) == (2, 3)
     ll = region_log_likelihoods(fit.models, frames, fit.structure.space)
-    chex.assert_shape(ll, (8, len(REGIONS), 30, 40))
+    chex.assert_shape(ll, (8, 2, 30, 40))  # person, background
     chex.assert_tree_all_finite(ll)
     person = np.asarray(ll[:, 0] > ll[:, 1])
     assert (person == masks).mean() > 0.99
@@ -120,12 +122,12 @@ BAD_CALLS = {
     "key: expected a jax.random key": lambda: fit_gmm_bic(0, X),
     "x: contains": lambda: fit_gmm_bic(jax.random.key(0), np.full((50, 3), np.nan)),
     "x: expected a 2-D": lambda: fit_gmm_bic(jax.random.key(0), X[0]),
-    "candidates: must not be empty": lambda: fit_gmm_bic(jax.random.key(0), X, candidates=()),
-    "candidates: must be >= 1": lambda: fit_gmm_bic(jax.random.key(0), X, candidates=(0, 1)),
-    "candidates: expected distinct": lambda: fit_gmm_bic(jax.random.key(0), X, candidates=(2, 2)),
-    "x: 50 points cannot support": lambda: fit_gmm_bic(jax.random.key(0), X, candidates=(1, 6)),
-    "param_count: expected one of": lambda: fit_gmm_bic(jax.random.key(0), X, param_count="aic"),
-    "n_init: must be >= 1": lambda: fit_gmm_bic(jax.random.key(0), X, n_init=0),
+    "candidates: must not be empty": lambda: fit_gmm_bic(jax.random.key(0), X, BICOptions(candidates=())),
+    "candidates: must be >= 1": lambda: fit_gmm_bic(jax.random.key(0), X, BICOptions(candidates=(0, 1))),
+    "candidates: expected distinct": lambda: fit_gmm_bic(jax.random.key(0), X, BICOptions(candidates=(2, 2))),
+    "x: 50 points cannot support": lambda: fit_gmm_bic(jax.random.key(0), X, BICOptions(candidates=(1, 6))),
+    "param_count: expected one of": lambda: fit_gmm_bic(jax.random.key(0), X, BICOptions(param_count="aic")),
+    "n_init: must be >= 1": lambda: fit_gmm_bic(jax.random.key(0), X, BICOptions(n_init=0)),
     "frames: expected a 4-D": lambda: fit_person_background_models(jax.random.key(0), BAD[0], BAD[0, ..., 0]),
     "frames: values must be <= 255": lambda: fit_person_background_models(jax.random.key(0), BAD + 300.0,
                                                                           BAD[..., 0] > 0),

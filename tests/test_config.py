@@ -133,7 +133,7 @@ def test_writer_flattens_nested_metrics(tmp_path):
 def test_timing_helper():
     import jax.numpy as jnp
 
-    from experiments.bench.timing import time_call
+    from experiments.timing import time_call
 
     calls = []
     t = time_call(lambda: calls.append(1) or jnp.ones(3) * len(calls), repeats=3)
@@ -149,7 +149,7 @@ def test_timing_helper():
 
 
 def test_interleaved_timing_calls_each_side_in_turn():
-    from experiments.bench.timing import time_interleaved
+    from experiments.timing import time_interleaved
 
     order = []
     timed = time_interleaved({"a": lambda: order.append("a") or 1, "b": lambda: order.append("b") or 2}, repeats=3,

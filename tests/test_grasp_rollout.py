@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sim.grasping import GRASP_CLASSES, VOLAR_GRASPS
-from sim.grasping import SUBSTEPS, peak_touch, resolve_backend, rollout_grasps, warp_status
+from sim.grasping import PlanOptions, SUBSTEPS, peak_touch, resolve_backend, rollout_grasps, warp_status
 from sim.grasping import (ALPHA0, APPROACH, CLOSE, CONTROL_DT_S, HOLD_S, RETRACT, TOUCH_THRESHOLD_N,
     controller_step, initial_state, plan_trials)
 from sim.hands import grasp_model
@@ -18,7 +18,8 @@ def _plan(hand, grasps, tactile=True, offsets=None, hold_s=HOLD_S):
     grasps = np.asarray(grasps)
     b = len(grasps)
     offsets = np.zeros((b, 2)) if offsets is None else offsets
-    return plan_trials(hand, grasps, offsets, np.zeros(b), np.full(b, tactile), np.arange(b), hold_s=hold_s)
+    return plan_trials(hand, grasps, offsets, np.zeros(b), np.full(b, tactile), np.arange(b),
+                       options=PlanOptions(hold_s=hold_s))
 
 
 # ------------------------------------------------------------------ controller (pure function)

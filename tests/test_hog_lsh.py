@@ -4,7 +4,7 @@ import jax
 import numpy as np
 import pytest
 
-from hog_jax import build_index, query, recall_at_k, tune
+from hog_jax import TuneOptions, build_index, query, recall_at_k, tune
 from hog_jax._src import lsh as lsh_module
 from hog_jax._src.lsh import bucket_ids
 
@@ -94,8 +94,8 @@ def test_no_duplicates_and_missing_marked(setup):
 
 def test_tune_reaches_target_with_fewest_candidates(setup):
     data, q, truth = setup
-    res = tune(jax.random.key(4), data, q, k=10, target_recall=0.9, n_bits_grid=(4, 6),
-               n_tables_grid=(2, 8, 32), n_per_table=512, truth=truth)
+    res = tune(jax.random.key(4), data, q, k=10, truth=truth,
+               options=TuneOptions(target_recall=0.9, n_bits_grid=(4, 6), n_tables_grid=(2, 8, 32), n_per_table=512))
     assert res.reached and res.recall >= 0.9
     ok = [r for r in res.table if r[2] >= 0.9]
     assert res.mean_scanned <= min(r[3] for r in ok) + 1e-9
@@ -133,7 +133,8 @@ def test_too_few_candidate_slots_are_named(setup):
     with pytest.raises(ValueError, match="n_per_table"):
         predict(model, q, k=10, index=idx, n_per_table=4)
     with pytest.raises(ValueError, match="n_per_table"):
-        tune(jax.random.key(0), data[:200], q[:5], k=10, n_bits_grid=(4,), n_tables_grid=(1, 2), n_per_table=4)
+        tune(jax.random.key(0), data[:200], q[:5], k=10,
+             options=TuneOptions(n_bits_grid=(4,), n_tables_grid=(1, 2), n_per_table=4))
     res = query(idx, q, k=10, n_per_table=5)  # exactly k slots: fine
     chex.assert_shape(res.indices, (len(q), 10))
 
@@ -142,11 +143,11 @@ def test_empty_grid_and_int_key_are_named(setup):
     """tune(n_bits_grid=()) crashed on max() of an empty sequence; build_index(0, ...) inside JAX."""
     data, q, _ = setup
     with pytest.raises(ValueError, match="n_bits_grid: must not be empty"):
-        tune(jax.random.key(0), data[:100], q[:5], k=3, n_bits_grid=())
+        tune(jax.random.key(0), data[:100], q[:5], k=3, options=TuneOptions(n_bits_grid=()))
     with pytest.raises(ValueError, match="n_tables_grid: must not be empty"):
-        tune(jax.random.key(0), data[:100], q[:5], k=3, n_tables_grid=())
+        tune(jax.random.key(0), data[:100], q[:5], k=3, options=TuneOptions(n_tables_grid=()))
     with pytest.raises(ValueError, match="n_bits_grid\\[1\\]: must be <= 32"):
-        tune(jax.random.key(0), data[:100], q[:5], k=3, n_bits_grid=(4, 40))
+        tune(jax.random.key(0), data[:100], q[:5], k=3, options=TuneOptions(n_bits_grid=(4, 40)))
     with pytest.raises(ValueError, match="key: expected a jax.random key"):
         build_index(0, data, 4, 2)
     with pytest.raises(ValueError, match="key: expected a jax.random key"):
@@ -182,8 +183,9 @@ def test_multi_probe_reads_the_one_bit_neighbour_buckets(setup):
                                   np.asarray(query(idx, q, 10, 64, n_probes=0).indices))
     with pytest.raises(ValueError, match="n_probes"):
         query(idx, q, 10, 64, n_probes=11)
-    tuned = [tune(jax.random.key(5), data, q, k=10, target_recall=1.0, n_bits_grid=(8,), n_tables_grid=(2,),
-                  n_probes=p) for p in (0, 3)]
+    tuned = [tune(jax.random.key(5), data, q, k=10,
+                  options=TuneOptions(target_recall=1.0, n_bits_grid=(8,), n_tables_grid=(2,), n_probes=p))
+             for p in (0, 3)]
     assert tuned[1].recall > tuned[0].recall and tuned[1].max_rerank == 2 * 64 * 4
 
 
@@ -198,7 +200,7 @@ def test_candidates_are_the_distinct_bucket_members_in_either_deduplication(setu
     idx = build_index(jax.random.key(6), data, n_bits=6, n_tables=T)
     keys, order = np.asarray(idx.keys), np.asarray(idx.order)
     for x in q[:5]:
-        buckets = np.asarray(lsh_module.bucket_ids(lsh_module._codes(jax.numpy.asarray(x[None]), idx.planes, idx.center),
+        buckets = np.asarray(lsh_module.bucket_ids(lsh_module.hash_codes(jax.numpy.asarray(x[None]), idx.planes, idx.center),
                                                 6, idx.table_bits))[:, 0]
         slots = np.concatenate([order[t][keys[t] == buckets[t]][:C] for t in range(T)])
         in_order = list(dict.fromkeys(slots.tolist()))  # distinct, first appearance first

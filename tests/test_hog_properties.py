@@ -286,7 +286,8 @@ TUNE_DATA = np.random.default_rng(2).normal(size=(N, D)).astype(np.float32)
 @given(arrays(np.float32, (Q, D), elements=f32(-10, 10)))
 def test_tune(q):
     # the programs of test_exact_search_is_exact and test_lsh_query (same N, D, Q, k, K, C): no new compiles
-    res = H.tune(KEY, TUNE_DATA, q, k=K, target_recall=0.5, n_bits_grid=(3,), n_tables_grid=(1, 2), n_per_table=8)
+    res = H.tune(KEY, TUNE_DATA, q, k=K,
+                 options=H.TuneOptions(target_recall=0.5, n_bits_grid=(3,), n_tables_grid=(1, 2), n_per_table=8))
     assert res.n_bits == 3 and res.n_tables in (1, 2) and res.n_per_table == 8
     assert 0 <= res.recall <= 1 and np.isfinite(res.mean_scanned) and res.max_rerank >= K
     assert len(res.table) == 2
@@ -298,8 +299,8 @@ def test_tune(q):
 def test_tune_rejects(bits_grid, tables_grid, key):
     q = TUNE_DATA[:Q] + 0.5
     with pytest.raises(ValueError, match="n_bits_grid"):
-        H.tune(KEY, TUNE_DATA, q, k=3, n_bits_grid=tuple(bits_grid))
+        H.tune(KEY, TUNE_DATA, q, k=3, options=H.TuneOptions(n_bits_grid=tuple(bits_grid)))
     with pytest.raises(ValueError, match="n_tables_grid"):
-        H.tune(KEY, TUNE_DATA, q, k=3, n_bits_grid=(2,), n_tables_grid=tuple(tables_grid))
+        H.tune(KEY, TUNE_DATA, q, k=3, options=H.TuneOptions(n_bits_grid=(2,), n_tables_grid=tuple(tables_grid)))
     with pytest.raises(ValueError, match="key: expected"):
         H.tune(key, TUNE_DATA, q, k=3)

@@ -4,9 +4,9 @@ import pytest
 
 import hog_jax
 from sim.grasping import GRASP_CLASSES, GRASP_OBJECTS
-from sim.grasping import (crop_hand, hand_center, look_at_rotation, render_grasp, render_views,
+from sim.grasping import (ViewOptions, crop_hand, hand_center, look_at_rotation, render_grasp, render_views,
     sphere_camera, view_euler, view_grid)
-from sim.hands import (GRASP_POSTURES, grasp_contacts, grasp_plausibility, grasp_scene_xml,
+from sim.hands import (GRASP_POSTURES, GraspSceneOptions, grasp_contacts, grasp_plausibility, grasp_scene_xml,
     hand_pose_in_world, posture, scene_qpos)
 from sim.hands import (DEFAULT_SHAPE, FINGERS, JOINT_NAMES, JOINT_RANGES_DEG, NEUTRAL_POSTURE_DEG,
     TEST_SHAPE, HandShape, clip_posture, hand_model_xml, posture_qpos)
@@ -146,16 +146,17 @@ def test_render_shows_a_skin_coloured_hand_partly_hidden_by_the_black_object():
     grasp = 10
     centre = hand_center(grasp)
     pos, rot = sphere_camera(90.0, 0.0, 0.5, target=centre)
-    kw = dict(rotation=rot, width=64, height=64, background_rgb=(0.0, 0.0, 1.0))
-    with_obj = render_grasp(grasp, pos, **kw)
-    bare = render_grasp(grasp, pos, with_object=False, **kw)
+    blue = GraspSceneOptions(background_rgb=(0.0, 0.0, 1.0))
+    kw = dict(rotation=rot, width=64, height=64)
+    with_obj = render_grasp(grasp, pos, options=blue, **kw)
+    bare = render_grasp(grasp, pos, options=GraspSceneOptions(with_object=False, background_rgb=(0.0, 0.0, 1.0)), **kw)
     assert with_obj.shape == (64, 64, 3) and with_obj.dtype == np.uint8
     assert tuple(with_obj[0, 0]) == (0, 0, 255)                       # the background colour
     skin = lambda im: (im[..., 0] > im[..., 2] + 30).sum()            # reddish pixels
     assert skin(with_obj) > 100
     dark = lambda im: (im.max(-1) < 30).sum()
     assert dark(with_obj) > dark(bare) + 20                            # the black ball is there
-    same = render_grasp(grasp, pos, look_at=centre, width=64, height=64, background_rgb=(0.0, 0.0, 1.0))
+    same = render_grasp(grasp, pos, look_at=centre, width=64, height=64, options=blue)
     assert np.mean(np.abs(same.astype(int) - with_obj.astype(int))) < 2.0  # look-at == the rotation
     with pytest.raises(ValueError, match="look_at"):
         render_grasp(grasp, pos)
@@ -186,7 +187,7 @@ def test_crop_hand_centres_the_mask_in_a_square_box():
 
 
 def test_render_views_gives_centred_hand_crops():
-    images, masks = render_views(2, [0.0, 123.0], [10.0, 60.0], render_size=64, out_size=32)
+    images, masks = render_views(2, [0.0, 123.0], [10.0, 60.0], ViewOptions(render_size=64, out_size=32))
     assert images.shape == masks.shape == (2, 32, 32)
     assert np.all(masks.sum((1, 2)) > 100) and images.max() <= 1.0
     for m in masks:                               # the crop is centred on the hand

@@ -6,13 +6,18 @@ import math
 import numpy as np
 import pytest
 
-from experiments.bench.object_peer import window
+from experiments.peers.object_peer import window
 from experiments.lfd_demonstration.evaluate import (hand_width, held_object_motion, iou_by_bin, match_events,
                                                     pooled_iou, truth_windows)
 from tests.xla_level import run_experiment
 
 REQUIRED = ("object_mask_iou", "object_mask_iou_peer", "pickup_error_frames", "putdown_error_frames", "events_missed",
             "events_spurious", "runtime_s")
+# Pooled object-mask IoU floors in the hand's 21 x 21 window on this recording. Measured: ours 0.082, the
+# peer 0.109 (the held object is §III-B's hard case). Broken masks against the same truth windows: empty 0,
+# all-one 0.044, the true mask moved 8 px right and down 0.035 (moved 2 px: 0.41, better than either
+# method). The floors sit between: they fail an empty, all-one or misplaced mask, not a small regression.
+IOU_FLOORS = {"object_mask_iou": 0.06, "object_mask_iou_peer": 0.08}
 
 
 def test_match_events_pairs_by_overlap_and_counts_the_rest():
@@ -92,8 +97,8 @@ def test_quick_preset_writes_every_metric_and_figure(quick_run):
     on_disk = json.loads((out / "metrics.json").read_text())
     for key in REQUIRED:
         assert key in on_disk, key
-    for key in ("object_mask_iou", "object_mask_iou_peer"):
-        assert 0.0 <= on_disk[key] <= 1.0, (key, on_disk[key])
+    for key, floor in IOU_FLOORS.items():
+        assert floor <= on_disk[key] <= 1.0, (key, on_disk[key])
     assert on_disk["events_true"] == 2 == on_disk["events_matched"] + on_disk["events_missed"]
     assert math.isfinite(on_disk["recordings_0_sigma_px"]) and on_disk["recordings_0_sigma_px"] > 0
     by_depth = [k for k in on_disk if k.startswith("iou_by_depth_offset_cm_ours_")]

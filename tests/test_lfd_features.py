@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import hog_jax
-from experiments.bench.object_peer import window
+from experiments.peers.object_peer import window
 from experiments.data.oac import OACData
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.features import (FeatureSpec, as_oac_data, ellipse_masks, frame_features, held,

@@ -8,7 +8,7 @@ from scipy import ndimage
 from scipy.ndimage import binary_erosion, gaussian_filter
 
 from hog_jax.video._src.phase_segmentation import CHUNK
-from hog_jax.video import (LogRatio, gradient_phase, object_masks, segment_objects, stereo_log_ratio,
+from hog_jax.video import (LogRatio, ObjectOptions, gradient_phase, object_masks, segment_objects, stereo_log_ratio,
     temporal_log_ratio)
 
 H, W, T = 48, 64, 4
@@ -209,7 +209,8 @@ def test_segment_objects_composes_the_pieces(scene):
     for t, (r, c) in enumerate(hand_l):
         hands[t, r - 1:r + 2, c - 1:c + 2] = True
     key = jax.random.key(3)
-    res = segment_objects(key, left, right, hand_l, hand_r, hands, HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50)
+    res = segment_objects(key, left, right, hand_l, hand_r, hands,
+                          ObjectOptions(HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50))
     temporal = temporal_log_ratio(psi_l, hand_l, HALF, SIGMA)
     stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], hand_l[1:], hand_r[1:], HALF, SIGMA, 10, 50)
     in_window = np.zeros(np.shape(temporal.log_ratio), bool)
@@ -219,8 +220,8 @@ def test_segment_objects_composes_the_pieces(scene):
     assert list(np.asarray(res.found)) == [False] + list(np.asarray(found))
     assert not np.asarray(res.masks)[0].any()
     assert list(np.asarray(res.hand_moved)) == [False] + [True] * (len(left) - 1)  # the hand moves 2 px a frame
-    still = segment_objects(key, left, right, hand_l, hand_r, hands, HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50,
-                            min_hand_motion=2.5)
+    still = segment_objects(key, left, right, hand_l, hand_r, hands,
+                            ObjectOptions(HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50, min_hand_motion=2.5))
     assert not np.asarray(still.hand_moved).any()
     np.testing.assert_array_equal(np.asarray(still.masks), np.asarray(res.masks))
 
@@ -230,7 +231,7 @@ def test_opencv_peer_finds_the_object_on_the_same_windows(scene, crop_margin):
     """The OpenCV object peer (StereoSGBM + DIS flow, the same selection as ours) on the synthetic pair,
     on the full frames and on crops: its mask lies on the object (the scene's object is nearer and
     moves with the hand)."""
-    from experiments.bench.object_peer import peer_object_masks
+    from experiments.peers.object_peer import peer_object_masks
 
     left, right, hand_l, hand_r, mask, _, _ = scene
     u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
@@ -278,7 +279,7 @@ def test_opencv_peer_on_crops_equals_the_full_frames_where_the_fields_are_local(
     block, the disparity range, the flow's radius = crop_margin), the peer on crops equals the peer
     on the full frames exactly, for windows inside and over the image border: the crops hold the
     fields' whole support and their windows are read at the right offsets."""
-    from experiments.bench import object_peer
+    from experiments.peers import object_peer
 
     left, right, *_ = scene
     u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
@@ -301,7 +302,7 @@ def test_opencv_peer_on_crops_equals_the_full_frames_where_the_fields_are_local(
 def test_opencv_peer_on_crops_runs_on_windows_over_the_border(scene):
     """Crops clipped by the image border are grown to what OpenCV accepts (SGBM fails on no more
     columns than disparities, DIS on short wide images): masks and flags, no crash."""
-    from experiments.bench.object_peer import peer_object_masks
+    from experiments.peers.object_peer import peer_object_masks
 
     left, right, *_ = scene
     u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
@@ -353,8 +354,8 @@ def test_segment_objects_cues_equal_the_full_frame_pieces_near_the_border(scene)
     hand_l = np.array([[1, 2], [3, 5], [H - 2, W - 4], [H // 2, W // 2]])
     hand_r = hand_l - np.array([0, DISPARITY_OBJ])
     key = jax.random.key(5)
-    res = segment_objects(key, u8(left), u8(right), hand_l, hand_r, np.zeros(left.shape, bool), HALF, SIGMA, 10,
-                          blur_sigma=BLUR, n_samples=50)
+    res = segment_objects(key, u8(left), u8(right), hand_l, hand_r, np.zeros(left.shape, bool),
+                          ObjectOptions(HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50))
     psi_l, psi_r = gradient_phase(u8(left), BLUR), gradient_phase(u8(right), BLUR)
     temporal = temporal_log_ratio(psi_l, hand_l, HALF, SIGMA)
     stereo = stereo_log_ratio(key, psi_l[1:], psi_r[1:], hand_l[1:], hand_r[1:], HALF, SIGMA, 10, 50)
@@ -386,7 +387,7 @@ def test_segment_objects_in_chunks_of_frames(scene):
 
     def run(n):
         return segment_objects(key, left[:n], right[:n], hand_l[:n], hand_r[:n], np.zeros(left[:n].shape, bool),
-                               HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50)
+                               ObjectOptions(HALF, SIGMA, 10, blur_sigma=BLUR, n_samples=50))
 
     res, short = run(len(order)), run(4)
     psi_l, psi_r = gradient_phase(left, BLUR), gradient_phase(right, BLUR)

@@ -7,7 +7,7 @@ import pytest
 from scipy.special import logsumexp
 
 import phmm_jax as P
-from phmm_jax._src import batched as _batched, inference as inference
+from phmm_jax._src import batched as _batched, inference as inference, model as _model
 from phmm_jax import gaussian_log_density, gaussian_log_density_columns, stacked_log_density_columns
 from phmm_jax import transitions_from_durations
 from tests.phmm_reference import brute_force, dense_forward_backward, emission_table
@@ -258,11 +258,11 @@ def test_emissions_of_unreachable_states_are_skipped_exactly(cfg):
     for _ in range(n_frames - 1):
         from_start.append(step[from_start[-1]].any(axis=0))
         to_end.append(to_end[-1] | step[:, to_end[-1]].any(axis=1))
-    first, last = P.model.reachable_states(cfg, n_frames)
+    first, last = _model.reachable_states(cfg, n_frames)
     for t in range(n_frames):
         states = np.unique(dense.state_of[from_start[t] & to_end[n_frames - 1 - t]])
         assert (first[t], last[t]) == (states.min(), states.max()) and len(states) == last[t] - first[t] + 1
-    start, width = P.model.state_band(cfg, n_frames)
+    start, width = _model.state_band(cfg, n_frames)
     assert np.all((start <= first) & (start + width - 1 >= last)) and set(np.diff(start)) <= {0, 1}
     assert width < cfg.n_states  # the case under test: the band is narrower than the model
     X = jnp.asarray(rng.normal(size=(batch, n_frames, 2)))

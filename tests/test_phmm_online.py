@@ -175,7 +175,7 @@ def make_stream(rng):
 
 @pytest.fixture(scope="module")
 def recognizer(phmms):
-    return P.online_recognizer(phmms, threshold=0.05, window=3)
+    return P.online_recognizer(phmms, threshold=0.05, options=P.OnlineOptions(window=3))
 
 
 def test_online_recognizer_finds_both_movements(recognizer):
@@ -213,7 +213,7 @@ def test_online_edge_cases_and_checks(recognizer, phmms):
     chex.assert_shape(events.phi, (0, 1))
     # A movement too short for any class: detected, not found, never NaN.
     short = np.concatenate([np.repeat(REST[None], 10, 0), REST + [[0.3, 0, 0]] * 3, np.repeat(REST[None], 10, 0)])
-    events = P.run_online(P.online_recognizer(phmms, threshold=0.05, window=3), short)
+    events = P.run_online(P.online_recognizer(phmms, threshold=0.05, options=P.OnlineOptions(window=3)), short)
     assert not np.any(np.isnan(events.loglik)) and not np.any(np.isnan(events.phi))
     assert np.all(~events.found | (events.end - events.start + 1 >= CFG.min_length))
     state = P.init_online(recognizer)
@@ -223,8 +223,9 @@ def test_online_edge_cases_and_checks(recognizer, phmms):
     raises_named("stream", lambda: P.run_online(recognizer, np.full((5, D), np.inf)))
     raises_named("recognizer", lambda: P.run_online(phmms, np.zeros((5, D))))
     raises_named("threshold", lambda: P.online_recognizer(phmms, threshold=0.0))
-    raises_named("window", lambda: P.online_recognizer(phmms, threshold=0.1, window=0))
-    raises_named("exit_threshold", lambda: P.online_recognizer(phmms, threshold=0.1, exit_threshold=1.5))
-    raises_named("max_frames", lambda: P.online_recognizer(phmms, threshold=0.1, max_frames=2))
+    raises_named("window", lambda: P.OnlineOptions(window=0))
+    raises_named("exit_threshold", lambda: P.OnlineOptions(exit_threshold=1.5))
+    raises_named("max_frames", lambda: P.online_recognizer(phmms, threshold=0.1, options=P.OnlineOptions(max_frames=2)))
+    raises_named("options", lambda: P.online_recognizer(phmms, threshold=0.1, options={"window": 3}))
     raises_named("phmms", lambda: P.online_recognizer([], threshold=0.1))
     raises_named("phmms[1]", lambda: P.online_recognizer([phmms[0], "x"], threshold=0.1))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings, strategies as st
 
-from sim import TaskResult, TaskSpec, run_task
+from sim import TaskOptions, TaskResult, TaskSpec, run_task
 from sim.grasping import GRASP_OBJECTS
 from sim.robot import PLACE_TOL_M, STAGES
 from sim.robot import retarget_path
@@ -78,12 +78,16 @@ def test_bad_input_raises_naming_the_argument(change, match):
     (dict(approach_path=np.zeros((4, 2))), "approach_path"),
     (dict(approach_path=np.full((4, 3), np.inf)), "approach_path"),
     (dict(seed=-1), "seed"),
-    (dict(mapping="cutkosky"), "mapping"),
-    (dict(camera="nowhere"), "camera"),
-    (dict(fps=0.0), "fps"),
+    (dict(options=dict(mapping="cutkosky")), "mapping"),
+    (dict(options=dict(camera="nowhere")), "camera"),
+    (dict(options=dict(fps=0.0)), "fps"),
+    (dict(options=dict(render="yes")), "render"),
+    (dict(options="fast"), "options"),
 ])
 def test_bad_options_raise_naming_the_argument(kwargs, match):
     with pytest.raises(ValueError, match=match):
+        if isinstance(kwargs.get("options"), dict):
+            kwargs = {**kwargs, "options": TaskOptions(**kwargs["options"])}
         run_task(TaskSpec(objects=(1,), object_xy=OBJECT_XY, place_xy=PLACE), **kwargs)
 
 
@@ -118,7 +122,7 @@ def test_others_moved_measures_how_far_the_other_objects_were_pushed():
     spec = TaskSpec(objects=(1, 9), object_xy=[(0.0, -0.40), (0.2, -0.45)], target=0, grasp=1, place_xy=PLACE,
                     hand="barrett")
     scene = task_scene(spec.hand, spec.objects, tuple(map(tuple, spec.object_xy)))
-    sim = TaskSim(scene, spec, np.zeros(len(scene.arm.hand_ctrl)), False, "front", 32, 32, 20.0)
+    sim = TaskSim(scene, spec, np.zeros(len(scene.arm.hand_ctrl)), TaskOptions(width=32, height=32))
     assert sim.others_moved() == 0.0
     handled, other = scene.arm.object_qpos
     sim.data.qpos[handled] += 0.3                       # the handled object does not count

@@ -15,8 +15,8 @@ from hypothesis.extra.numpy import arrays
 
 from hog_jax.video import connected_blobs, ellipse_axes, mask_ellipse
 from hog_jax.video import StereoCamera, camera_matrices, project, triangulate
-from hog_jax.video import alpha_beta_gains, track
-from hog_jax.video import FACE, HAND, hand_face_positions
+from hog_jax.video import TrackOptions, alpha_beta_gains, track
+from hog_jax.video import FACE, HAND, HandFaceOptions, hand_face_positions
 
 PROP = settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 T, H, W, K, R = 24, 48, 64, 4, 5
@@ -68,7 +68,7 @@ def videos():
         masks[2, i] = disc(FACE_XY, 9) | disc(REACH[i])
         masks[3, i] = disc([10 + 1.5 * i, 10]) if i < 8 else disc([40, 30]) if i >= BACK else False
     blobs = connected_blobs(masks, max_blobs=K)
-    tracks = track(blobs, ("left", "right", "top"), alpha=ALPHA, beta=BETA, n_lost=5, min_init=1)
+    tracks = track(blobs, ("left", "right", "top"), TrackOptions(alpha=ALPHA, beta=BETA, n_lost=5, min_init=1))
     return masks, blobs, host(blobs), host(tracks)
 
 
@@ -267,8 +267,9 @@ def test_hand_face_positions_from_stereo_labels():
     left, right = np.stack([first[0], second[0]]), np.stack([first[1], second[1]])  # a batch of two videos
     # the hand starts within the face's horizontal extent, where the default side rules wait for it to
     # leave (test_side_rules_...): acquired here by the plain "left" rule, the merge being what is tested
-    out = host(hand_face_positions(left, right, cam, init=("top", "left", "right"), max_blobs=K, min_area=2,
-                                   n_objects=3, n_hidden=5))
+    options = HandFaceOptions(init=("top", "left", "right"), max_blobs=K, min_area=2, n_objects=3,
+                              tracking=TrackOptions(n_hidden=5, min_init=2))
+    out = host(hand_face_positions(left, right, cam, options=options))
     chex.assert_shape(out.xy_left, (2, T, 2))
     chex.assert_shape(out.xyz, (2, T, 3))
     chex.assert_shape([out.found, out.found_3d, out.observed], (2, T))
@@ -330,7 +331,8 @@ BAD_TRACK = [({"alpha": 0.0}, "alpha"), ({"alpha": 1.5}, "alpha"), ({"beta": 2.6
 def test_bad_tracker_options_name_the_argument(videos, case):
     kwargs, name = case
     with pytest.raises(ValueError, match=name):
-        track(videos[1], **kwargs)
+        options = {k: v for k, v in kwargs.items() if k != "init"}
+        track(videos[1], kwargs.get("init", ("top", "left", "right")), TrackOptions(**options))
 
 
 @settings(max_examples=10, deadline=None)
@@ -363,8 +365,9 @@ def test_side_rules_wait_for_the_hand_beyond_the_face_s_left():
     for i in range(T):
         masks[:, i] = disc([32, 8], 4) | disc([30, 16], 2) | disc([50, 34], 3) | (disc(hand[i], 3) if i >= 8 else False)
     blobs = connected_blobs(masks, max_blobs=K)
-    by_side = host(track(blobs, ("top", "left_of_first", "right_of_first"), alpha=ALPHA, beta=BETA, min_init=3))
-    leftmost = host(track(blobs, ("top", "left", "right"), alpha=ALPHA, beta=BETA, min_init=3))
+    options = TrackOptions(alpha=ALPHA, beta=BETA, min_init=3)
+    by_side = host(track(blobs, ("top", "left_of_first", "right_of_first"), options))
+    leftmost = host(track(blobs, ("top", "left", "right"), options))
     assert by_side.lost[0, :8, 1].all() and not by_side.lost[0, 8:, 1].any()
     np.testing.assert_allclose(by_side.position[0, 12:, 1], hand[12:], atol=1.0)
     assert not by_side.lost[0, :, 2].any() and (by_side.position[0, :, 2, 0] > 32).all()

@@ -8,7 +8,7 @@ This is eq. 3 with feature functions that factor into node and edge terms, as in
 Two layers: `unary_potentials`, `nll` and the `*_jit` functions take jax arrays X (B, T, D),
 lengths (B,) and do no validation; `predict`, `predict_marginals`, `segment_log_probs` and
 `log_likelihood` (re-exported by `crf_jax`) validate user input (`ValueError` naming the argument)
-and return jax arrays. Inference on the potentials is in `crf_jax.inference`.
+and return jax arrays. Inference on the potentials is in `inference`.
 """
 from __future__ import annotations
 
@@ -28,7 +28,16 @@ from crf_jax._src.inference import constant_path_log_prob, log_partition, margin
 
 @dataclasses.dataclass(frozen=True)
 class ChainStructure:
-    """What defines a linear-chain CRF: K labels, D features per frame, connectivity C (W = 2C + 1)."""
+    """What defines a linear-chain CRF (OAC eqs. 3-4): what a saved model's file stores as JSON.
+
+    Attributes:
+        n_labels: K, labels, >= 1.
+        n_features: D, features per frame, >= 1.
+        connectivity: C >= 0: each label sees x_{t-C..t+C} (W = 2C + 1 window offsets).
+
+    Raises:
+        ValueError: Naming the field, for a non-integer or a value below its minimum.
+    """
 
     n_labels: int
     n_features: int
@@ -39,11 +48,16 @@ class ChainStructure:
 
 
 class ChainCRF(NamedTuple):
-    """Linear-chain CRF parameters (a pytree).
+    """Linear-chain CRF parameters (a pytree; OAC eqs. 3-4, LfD eqs. 7-8).
 
-    weights (W, D, K): node weights for window offset c - C, W = 2C + 1 (C = connectivity).
-    bias    (K,):      per-label bias.
-    trans   (K, K):    transition log potentials, trans[i, j] for y_{t-1} = i -> y_t = j.
+    log P(y | x) = sum_t log psi_t(y_t) + sum_{t>=1} trans[y_{t-1}, y_t] - log Z(x), with
+    log psi_t(k) = sum_c <x_{t+c-C}, weights[c, :, k]> + bias[k]. Its sizes (connectivity,
+    n_features, n_labels) are read off the arrays.
+
+    Attributes:
+        weights: (W, D, K) node weights for window offset c - C, W = 2C + 1 (C = connectivity).
+        bias: (K,) per-label bias.
+        trans: (K, K) transition log potentials, trans[i, j] for y_{t-1} = i -> y_t = j.
     """
 
     weights: Float[Array, "W D K"]
@@ -54,12 +68,27 @@ class ChainCRF(NamedTuple):
 
     @property
     def structure(self) -> ChainStructure:
+        """The `ChainStructure` that defines this model."""
         return ChainStructure(self.n_labels, self.n_features, self.connectivity)
 
 
 def init_chain(n_features: int, n_labels: int, connectivity: int = 0, key: Array | None = None,
-               scale: float = 0.0, dtype=jnp.float32) -> ChainCRF:
-    """All-zero parameters (the convex CRF objective needs no random start), or N(0, scale^2) with `key`."""
+               scale: float = 0.0, dtype: jnp.dtype = jnp.float32) -> ChainCRF:
+    """Starting parameters of a linear-chain CRF (no input checks).
+
+    All zero by default: the convex CRF objective needs no random start.
+
+    Args:
+        n_features: D, features per frame.
+        n_labels: K, labels.
+        connectivity: C: each label sees x_{t-C..t+C}.
+        key: A `jax.random` key for random node weights, or None for zeros.
+        scale: Standard deviation of the random node weights (0: zeros).
+        dtype: The arrays' dtype.
+
+    Returns:
+        `ChainCRF`: weights (2C + 1, D, K) zero or N(0, scale^2), bias (K,) and trans (K, K) zero.
+    """
     W = 2 * connectivity + 1
     shape = (W, n_features, n_labels)
     if key is None or scale == 0.0:
@@ -115,29 +144,82 @@ def _prepare(model: ChainCRF, X, lengths):
 
 def predict(model: ChainCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None
             ) -> Int[Array, "B T"]:
-    """Viterbi labelling: X (B, T, D), lengths (B,) or None -> labels (B, T) int32, -1 on padding."""
+    """The most probable label sequence of every sequence (Viterbi; OAC eq. 3).
+
+    Args:
+        model: The fitted `ChainCRF`.
+        X: (B, T, D) padded features.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+
+    Returns:
+        (B, T) int32 labels, -1 on padding.
+
+    Raises:
+        ValueError: Naming the argument: `X` not (B, T, D) with the model's D, NaN/inf on real
+            frames, an empty batch; `lengths` outside [1, T].
+    """
     Xj, lj = _prepare(model, X, lengths)
     return predict_jit(model, Xj, lj)
 
 
 def predict_marginals(model: ChainCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None
                       ) -> Float[Array, "B T K"]:
-    """Posterior node marginals P(y_t = k | x): (B, T, K), 0 on padding."""
+    """Posterior node marginals P(y_t = k | x) by forward-backward (OAC eq. 3).
+
+    Args:
+        model: The fitted `ChainCRF`.
+        X: (B, T, D) padded features.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+
+    Returns:
+        (B, T, K) marginals, each real row summing to 1, 0 on padding.
+
+    Raises:
+        ValueError: Naming the argument: `X` not (B, T, D) with the model's D, NaN/inf on real
+            frames, an empty batch; `lengths` outside [1, T].
+    """
     Xj, lj = _prepare(model, X, lengths)
     return marginals_jit(model, Xj, lj)
 
 
 def segment_log_probs(model: ChainCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None
                       ) -> Float[Array, "B K"]:
-    """Pre-segmented classification (OAC §4): log P(y_t = k for all t | x), (B, K)."""
+    """Pre-segmented classification (OAC §4): the log-probability that every frame has label k.
+
+    Args:
+        model: The fitted `ChainCRF`.
+        X: (B, T, D) padded features.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+
+    Returns:
+        (B, K) log P(y_t = k for all t | x).
+
+    Raises:
+        ValueError: Naming the argument: `X` not (B, T, D) with the model's D, NaN/inf on real
+            frames, an empty batch; `lengths` outside [1, T].
+    """
     Xj, lj = _prepare(model, X, lengths)
     return segment_log_probs_jit(model, Xj, lj)
 
 
 def log_likelihood(model: ChainCRF, X: Float[ArrayLike, "B T D"], y: Int[ArrayLike, "B T"],
                    lengths: Int[ArrayLike, " B"] | None = None) -> Float[Array, " B"]:
-    """log P(y_b | x_b) per sequence (B,) for labels y (B, T); at most 0 (float32 rounding of the two
-    large terms score - log Z, for large potentials, is clipped)."""
+    """Conditional log-likelihood log P(y | x) of a labelling (OAC eq. 3).
+
+    Args:
+        model: The fitted `ChainCRF`.
+        X: (B, T, D) padded features.
+        y: (B, T) labels in [0, K) on the real frames.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+
+    Returns:
+        (B,) log P(y_b | x_b), at most 0 (float32 rounding of the two large terms score - log Z,
+        for large potentials, is clipped).
+
+    Raises:
+        ValueError: Naming the argument: `X` and `lengths` as in `predict`; `y` of the wrong
+            shape, non-integral, or outside [0, K).
+    """
     Xj, lj = _prepare(model, X, lengths)
     yc = check_labels(y, np.asarray(lj), model.n_labels)
     return jnp.minimum(-nll(model, Xj, jnp.asarray(yc[:, : Xj.shape[1]]), lj), 0.0)

@@ -4,8 +4,8 @@
 
 K is the co-occurrence rate of action and object labels in the training data (`cooccurrence`,
 with additive smoothing so that unseen pairs keep a small mass). P(a | x) and P(o | x) come from
-any classifier that gives (log) probabilities: `chain.segment_log_probs` (pre-segmented CRF,
-eq. 3), `hcrf.log_probs` (eq. 5), `linear.predict_log_proba`. The normaliser Z(x) is returned: LfD
+any classifier that gives (log) probabilities: `segment_log_probs` (pre-segmented CRF,
+eq. 3), `hcrf_log_probs` (eq. 5), `linear_log_proba`. The normaliser Z(x) is returned: LfD
 uses it as the plausibility of an object-action complex (low for unseen combinations).
 All arithmetic in log space; results are jax arrays in the compute dtype. Shapes: B batch, Ka actions, Ko objects, I history entries, P position dims.
 """
@@ -22,20 +22,38 @@ from lfd_common import as_array, check_int, check_real, float_dtype, safe_logsum
 
 
 class CHCRFResult(NamedTuple):
-    """The fused distribution per row b. Where `impossible[b]` (K(a, o) P(a | x) P(o | x) = 0 for every
-    pair: Z(x) = 0, no distribution), log_z[b] is -inf and log_joint, log_action, log_object are -inf
-    everywhere in row b (never NaN)."""
+    """The fused distribution of `fuse` per row b (OAC eq. 8, LfD eq. 9).
 
-    log_joint: Float[Array, "B Ka Ko"]  # log P(a, o | x)
-    log_z: Float[Array, " B"]  # log Z(x) = log sum_{a,o} K(a, o) P(a | x) P(o | x)
-    log_action: Float[Array, "B Ka"]  # marginal log P(a | x) of the fused model
-    log_object: Float[Array, "B Ko"]  # marginal log P(o | x) of the fused model
-    impossible: Bool[Array, " B"]  # Z(x) = 0: no (a, o) pair has positive mass
+    Where `impossible[b]` (K(a, o) P(a | x) P(o | x) = 0 for every pair: Z(x) = 0, no
+    distribution), log_z[b] is -inf and log_joint, log_action, log_object are -inf everywhere in
+    row b (never NaN).
+
+    Attributes:
+        log_joint: (B, Ka, Ko) log P(a, o | x).
+        log_z: (B,) log Z(x) = log sum_{a,o} K(a, o) P(a | x) P(o | x), the plausibility of the
+            object-action complex (LfD).
+        log_action: (B, Ka) marginal log P(a | x) of the fused model.
+        log_object: (B, Ko) marginal log P(o | x) of the fused model.
+        impossible: (B,) Z(x) = 0: no (a, o) pair has positive mass.
+    """
+
+    log_joint: Float[Array, "B Ka Ko"]
+    log_z: Float[Array, " B"]
+    log_action: Float[Array, "B Ka"]
+    log_object: Float[Array, "B Ko"]
+    impossible: Bool[Array, " B"]
 
 
 class HistoryPosterior(NamedTuple):
-    log_joint: Float[Array, "Ka Ko"]  # log P(a, o | x, history), normalised
-    log_normaliser: Float[Array, ""]  # log sum_{a,o} P(a, o | x) prior(a, o)
+    """The result of `apply_history` (LfD eq. 10): one OAC's distribution given the scene's history.
+
+    Attributes:
+        log_joint: (Ka, Ko) log P(a, o | x, history), normalised.
+        log_normaliser: () log sum_{a,o} P(a, o | x) prior(a, o).
+    """
+
+    log_joint: Float[Array, "Ka Ko"]
+    log_normaliser: Float[Array, ""]
 
 
 def _out(x) -> Array:
@@ -44,10 +62,25 @@ def _out(x) -> Array:
 
 def cooccurrence(actions: Int[ArrayLike, " N"], objects: Int[ArrayLike, " N"], n_actions: int, n_objects: int,
                  smoothing: float = 0.0) -> Float[Array, "Ka Ko"]:
-    """K (Ka, Ko): (count(a, o) + smoothing) / sum, from paired training labels actions, objects (N,).
+    """The co-occurrence rates K(a, o) of action and object labels in training data (OAC eq. 8).
 
-    N may be 0 when smoothing > 0 (K is then uniform); with no pairs and no smoothing K is undefined
-    (`ValueError`).
+    K = (count(a, o) + smoothing) / sum: additive smoothing keeps a small mass on unseen pairs.
+
+    Args:
+        actions: (N,) action labels in [0, n_actions). N may be 0 when smoothing > 0 (K is then
+            uniform).
+        objects: (N,) the paired object labels in [0, n_objects).
+        n_actions: Ka, >= 1.
+        n_objects: Ko, >= 1.
+        smoothing: Pseudo-count added to every pair, >= 0.
+
+    Returns:
+        (Ka, Ko) rates summing to 1, in the compute dtype.
+
+    Raises:
+        ValueError: Naming the argument: labels out of range or non-integral, `objects` of another
+            length than `actions`, counts < 1, a negative smoothing; `actions` when there are no
+            pairs and no smoothing (K undefined).
     """
     n_actions = check_int(n_actions, "n_actions", min_value=1)
     n_objects = check_int(n_objects, "n_objects", min_value=1)
@@ -93,12 +126,26 @@ def fuse_jit(log_pa: Array, log_po: Array, log_k: Array) -> CHCRFResult:
 
 def fuse(log_p_action: Float[ArrayLike, "B Ka"], log_p_object: Float[ArrayLike, "B Ko"],
          cooc: Float[ArrayLike, "Ka Ko"]) -> CHCRFResult:
-    """Late fusion (eq. 8): log_p_action (B, Ka), log_p_object (B, Ko), cooc K (Ka, Ko) >= 0.
+    """Late fusion of action and object classifiers (connected hierarchic CRFs, OAC eq. 8, LfD eq. 9).
 
-    The classifier outputs may be normalised log probabilities or unnormalised log scores (Z then
-    carries their scale, as in LfD Fig. 8); -inf (probability 0) is allowed, NaN and +inf are not.
-    A row where K(a, o) P(a | x) P(o | x) = 0 for every pair has no fused distribution: it is flagged
-    in `impossible`, with log_z = -inf and -inf log probabilities (see `CHCRFResult`).
+    P(a, o | x) = K(a, o) P(a | x) P(o | x) / Z(x), computed in log space. A row where
+    K(a, o) P(a | x) P(o | x) = 0 for every pair has no fused distribution: it is flagged in
+    `impossible`, with log_z = -inf and -inf log probabilities (see `CHCRFResult`).
+
+    Args:
+        log_p_action: (B, Ka) action log-probabilities, or unnormalised log scores (Z then carries
+            their scale, as in LfD Fig. 8); -inf (probability 0) is allowed, NaN and +inf are not.
+        log_p_object: (B, Ko) object log-probabilities or log scores, likewise.
+        cooc: (Ka, Ko) co-occurrence rates K >= 0 (e.g. from `cooccurrence`).
+
+    Returns:
+        `CHCRFResult`: log_joint (B, Ka, Ko), log_z (B,), log_action (B, Ka), log_object (B, Ko),
+        impossible (B,).
+
+    Raises:
+        ValueError: Naming the argument: NaN or +inf scores, finite values that overflow the
+            compute dtype, batch sizes that differ (`log_p_object`), `cooc` of the wrong shape,
+            negative or all zero.
     """
     dtype = float_dtype()
     la = _log_scores(log_p_action, "log_p_action", dtype)
@@ -128,12 +175,26 @@ def _log_scores(value, name: str, dtype) -> np.ndarray:
 def history_prior(history: Float[ArrayLike, "I Ka Ko"], history_positions: Float[ArrayLike, "I P"],
                   position: Float[ArrayLike, " P"], default_distance: float,
                   min_distance: float = 1e-6) -> Float[Array, "Ka Ko"]:
-    """LfD eq. 10 prior (Ka, Ko): (1 / (I + 1)) (P_0 / delta_0 + sum_i P_i / |p_i - p|).
+    """The object-history prior of LfD eq. 10: (1 / (I + 1)) (P_0 / delta_0 + sum_i P_i / |p_i - p|).
 
-    history (I, Ka, Ko): P(a, o | x) of the I earlier OACs of the scene (I may be 0); history_positions
-    (I, P): the hand position at the end of each; position (P,): the hand position at the start of
-    the new OAC; default_distance delta_0 > 0 weights the "object not manipulated before" hypothesis
-    with uniform P_0. Distances are clipped below at `min_distance`.
+    An object only moves when a person manipulates it, so the classification of each earlier
+    object-action complex (OAC) of the scene weighs in inversely to the distance between where its
+    hand ended and where the new OAC's hand starts.
+
+    Args:
+        history: (I, Ka, Ko) P(a, o | x) of the I earlier OACs of the scene (I may be 0), >= 0.
+        history_positions: (I, P) the hand position at the end of each.
+        position: (P,) the hand position at the start of the new OAC.
+        default_distance: delta_0 > 0, weighting the "object not manipulated before" hypothesis
+            with uniform P_0.
+        min_distance: Distances are clipped below at this (> 0).
+
+    Returns:
+        (Ka, Ko) the prior, in the compute dtype.
+
+    Raises:
+        ValueError: Naming the argument: a distance not > 0, shapes that disagree, negative or
+            NaN/inf entries, Ka or Ko of 0.
     """
     d0 = check_real(default_distance, "default_distance", min_value=0.0, exclusive_min=True)
     min_distance = check_real(min_distance, "min_distance", min_value=0.0, exclusive_min=True)
@@ -151,8 +212,22 @@ def history_prior(history: Float[ArrayLike, "I Ka Ko"], history_positions: Float
 
 
 def apply_history(log_joint: Float[ArrayLike, "Ka Ko"], prior: Float[ArrayLike, "Ka Ko"]) -> HistoryPosterior:
-    """P(a, o | x, history) ∝ P(a, o | x) * prior for one OAC: log_joint (Ka, Ko) ->
-    HistoryPosterior(normalised log (Ka, Ko), log normaliser ())."""
+    """Combine one OAC's fused distribution with the history prior (LfD eq. 10).
+
+    P(a, o | x, history) ∝ P(a, o | x) * prior.
+
+    Args:
+        log_joint: (Ka, Ko) log P(a, o | x) (e.g. a row of `fuse`'s log_joint); -inf allowed, not
+            everywhere.
+        prior: (Ka, Ko) the prior >= 0 (from `history_prior`).
+
+    Returns:
+        `HistoryPosterior`: the normalised log_joint (Ka, Ko) and the log normaliser ().
+
+    Raises:
+        ValueError: Naming the argument: NaN or +inf, all -inf (`log_joint`); a shape other than
+            log_joint's, negative entries, or zero on every pair log_joint allows (`prior`).
+    """
     lj = _log_scores(log_joint, "log_joint", np.float64)
     if not np.any(np.isfinite(lj)):
         raise ValueError("log_joint: every (action, object) pair has probability 0 (all -inf)")

@@ -35,7 +35,17 @@ from lfd_common import check_choice, check_int, safe_logsumexp
 
 @dataclasses.dataclass(frozen=True)
 class FCRFStructure:
-    """What defines a factorial CRF: Ka actions, Ko objects, D features, one connectivity C for both chains."""
+    """What defines a factorial CRF (OAC eq. 7): what a saved model's file stores as JSON.
+
+    Attributes:
+        n_actions: Ka, action labels, >= 1.
+        n_objects: Ko, object labels, >= 1.
+        n_features: D, features per frame, >= 1.
+        connectivity: C >= 0, one for both chains.
+
+    Raises:
+        ValueError: Naming the field, for a non-integer or a value below its minimum.
+    """
 
     n_actions: int
     n_objects: int
@@ -47,9 +57,14 @@ class FCRFStructure:
 
 
 class FCRF(NamedTuple):
-    """action: ChainCRF (Ka labels), object: ChainCRF (Ko labels), coupling (Ka, Ko).
+    """Factorial CRF parameters (a pytree; OAC eq. 7, "early fusion"): two coupled chains.
 
     Both chains read the same features with the same window (connectivity).
+
+    Attributes:
+        action: `ChainCRF` of the Ka action labels.
+        object: `ChainCRF` of the Ko object labels.
+        coupling: (Ka, Ko) log potential of each (action, object) pair at a frame.
     """
 
     action: ChainCRF
@@ -58,29 +73,53 @@ class FCRF(NamedTuple):
 
     @property
     def n_features(self) -> int:
+        """D, features per frame."""
         return self.action.n_features
 
     @property
     def structure(self) -> FCRFStructure:
+        """The `FCRFStructure` that defines this model."""
         return FCRFStructure(self.action.n_labels, self.object.n_labels, self.n_features, self.action.connectivity)
 
 
 class FCRFMarginals(NamedTuple):
-    """Per-frame marginals (beliefs, for loopy BP) of the two chains, 0 on padding."""
+    """Per-frame marginals (beliefs, for loopy BP) of the two chains of an FCRF, 0 on padding.
+
+    Attributes:
+        action: (B, T, Ka) P(a_t = a | x).
+        object: (B, T, Ko) P(o_t = o | x).
+    """
 
     action: Float[Array, "B T Ka"]
     object: Float[Array, "B T Ko"]
 
 
 class SegmentLabels(NamedTuple):
-    """The most probable (action, object) label of each pre-segmented sequence."""
+    """The most probable (action, object) label of each pre-segmented sequence.
+
+    Attributes:
+        action: (B,) action labels.
+        object: (B,) object labels.
+    """
 
     action: Int[Array, " B"]
     object: Int[Array, " B"]
 
 
 def init_fcrf(n_features: int, n_actions: int, n_objects: int, connectivity: int = 0,
-              dtype=jnp.float32) -> FCRF:
+              dtype: jnp.dtype = jnp.float32) -> FCRF:
+    """All-zero starting parameters of a factorial CRF (no input checks).
+
+    Args:
+        n_features: D, features per frame.
+        n_actions: Ka, action labels.
+        n_objects: Ko, object labels.
+        connectivity: C, for both chains.
+        dtype: The arrays' dtype.
+
+    Returns:
+        `FCRF` with two zero `ChainCRF`s and a zero coupling (Ka, Ko).
+    """
     return FCRF(init_chain(n_features, n_actions, connectivity, dtype=dtype),
                 init_chain(n_features, n_objects, connectivity, dtype=dtype),
                 jnp.zeros((n_actions, n_objects), dtype))
@@ -277,21 +316,71 @@ def _prepare(model: FCRF, X, lengths, method, n_iter):
 
 def predict_marginals(model: FCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None,
                       method: str = "exact", n_iter: int = 20) -> FCRFMarginals:
-    """Validated: per-frame marginals FCRFMarginals((B, T, Ka), (B, T, Ko)) (beliefs with method="loopy")."""
+    """Per-frame marginals of the action and object chains (OAC eq. 7).
+
+    Args:
+        model: The fitted `FCRF`.
+        X: (B, T, D) padded features (the action and object features concatenated).
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+        method: "exact" (product space) or "loopy" (loopy belief propagation).
+        n_iter: Rounds of loopy BP, >= 1 (unused with "exact").
+
+    Returns:
+        `FCRFMarginals`: action (B, T, Ka), object (B, T, Ko), 0 on padding (beliefs with
+        method="loopy").
+
+    Raises:
+        ValueError: Naming the argument: `method` not "exact" or "loopy", `n_iter` < 1, `X` not
+            (B, T, D) with the model's D, NaN/inf on real frames, an empty batch; `lengths`
+            outside [1, T].
+    """
     Xj, lj = _prepare(model, X, lengths, method, n_iter)
     return marginals_jit(model, Xj, lj, method, n_iter)
 
 
 def segment_log_probs(model: FCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None,
                       method: str = "exact", n_iter: int = 20) -> Float[Array, "B Ka Ko"]:
-    """Validated: pre-segmented log P(a_t = a, o_t = o for all t | x), (B, Ka, Ko)."""
+    """Pre-segmented joint classification (OAC eq. 7): log P(a_t = a, o_t = o for all t | x).
+
+    Args:
+        model: The fitted `FCRF`.
+        X: (B, T, D) padded features (the action and object features concatenated).
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+        method: "exact" (product space) or "loopy" (loopy belief propagation).
+        n_iter: Rounds of loopy BP, >= 1 (unused with "exact").
+
+    Returns:
+        (B, Ka, Ko) log-probabilities, at most 0 (approximate with method="loopy", whose log Z is
+        the Bethe approximation).
+
+    Raises:
+        ValueError: Naming the argument: `method` not "exact" or "loopy", `n_iter` < 1, `X` not
+            (B, T, D) with the model's D, NaN/inf on real frames, an empty batch; `lengths`
+            outside [1, T].
+    """
     Xj, lj = _prepare(model, X, lengths, method, n_iter)
     return segment_log_probs_jit(model, Xj, lj, method, n_iter)
 
 
 def predict_segments(model: FCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None,
                      method: str = "exact", n_iter: int = 20) -> SegmentLabels:
-    """Validated: the most probable (action, object) per pre-segmented sequence: SegmentLabels((B,), (B,))."""
+    """The most probable (action, object) pair of every pre-segmented sequence (OAC eq. 7).
+
+    Args:
+        model: The fitted `FCRF`.
+        X: (B, T, D) padded features (the action and object features concatenated).
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+        method: "exact" (product space) or "loopy" (loopy belief propagation).
+        n_iter: Rounds of loopy BP, >= 1 (unused with "exact").
+
+    Returns:
+        `SegmentLabels`: action (B,), object (B,).
+
+    Raises:
+        ValueError: Naming the argument: `method` not "exact" or "loopy", `n_iter` < 1, `X` not
+            (B, T, D) with the model's D, NaN/inf on real frames, an empty batch; `lengths`
+            outside [1, T].
+    """
     lp = segment_log_probs(model, X, lengths, method, n_iter)
     flat = jnp.argmax(lp.reshape(lp.shape[0], -1), axis=1)
     return SegmentLabels(flat // lp.shape[2], flat % lp.shape[2])

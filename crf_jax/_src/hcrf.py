@@ -27,7 +27,17 @@ from lfd_common import safe_logsumexp
 
 @dataclasses.dataclass(frozen=True)
 class HCRFStructure:
-    """What defines a hidden CRF: K classes, H hidden states per class, D features, connectivity C."""
+    """What defines a hidden CRF (OAC eqs. 5-6): what a saved model's file stores as JSON.
+
+    Attributes:
+        n_labels: K, classes, >= 1.
+        n_hidden: H, hidden states per class, >= 1.
+        n_features: D, features per frame, >= 1.
+        connectivity: C >= 0: each hidden state sees x_{t-C..t+C}.
+
+    Raises:
+        ValueError: Naming the field, for a non-integer or a value below its minimum.
+    """
 
     n_labels: int
     n_hidden: int
@@ -39,7 +49,16 @@ class HCRFStructure:
 
 
 class HCRF(NamedTuple):
-    """weights (W, D, K, H), bias (K, H), trans (K, H, H)."""
+    """Hidden CRF parameters (a pytree; OAC eqs. 5-6): one label per sequence, a chain of hidden states.
+
+    log Phi(y, h_t, x) = sum_c <x_{t+c-C}, weights[c, :, y, h]> + bias[y, h], with class-specific
+    transitions trans[y]. Its sizes are read off the arrays.
+
+    Attributes:
+        weights: (W, D, K, H) node weights per window offset, class and hidden state.
+        bias: (K, H) per class and hidden state.
+        trans: (K, H, H) hidden-state transition log potentials per class.
+    """
 
     weights: Float[Array, "W D K H"]
     bias: Float[Array, "K H"]
@@ -50,12 +69,28 @@ class HCRF(NamedTuple):
 
     @property
     def structure(self) -> HCRFStructure:
+        """The `HCRFStructure` that defines this model."""
         return HCRFStructure(self.n_labels, self.n_hidden, self.n_features, self.connectivity)
 
 
 def init_hcrf(key: Array, n_features: int, n_labels: int, n_hidden: int, connectivity: int = 0,
-              scale: float = 0.1, dtype=jnp.float32) -> HCRF:
-    """N(0, scale^2) parameters (random, to break the symmetry between hidden states)."""
+              scale: float = 0.1, dtype: jnp.dtype = jnp.float32) -> HCRF:
+    """Random starting parameters of a hidden CRF (no input checks).
+
+    The objective is non-convex; N(0, scale^2) values break the symmetry between hidden states.
+
+    Args:
+        key: A `jax.random` key.
+        n_features: D, features per frame.
+        n_labels: K, classes.
+        n_hidden: H, hidden states per class.
+        connectivity: C: each hidden state sees x_{t-C..t+C}.
+        scale: Standard deviation of every parameter.
+        dtype: The arrays' dtype.
+
+    Returns:
+        `HCRF` with weights (2C + 1, D, K, H), bias (K, H), trans (K, H, H).
+    """
     k1, k2, k3 = jax.random.split(key, 3)
     W = 2 * connectivity + 1
     return HCRF(
@@ -90,12 +125,40 @@ def nll(model: HCRF, X: Float[Array, "B T D"], y: Int[Array, " B"], lengths: Int
 
 def log_probs(model: HCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None
               ) -> Float[Array, "B K"]:
-    """Validated: log P(y | x) (B, K) for X (B, T, D), lengths (B,) or None."""
+    """Class log-probabilities log P(y | x) of every pre-segmented sequence (OAC eq. 5).
+
+    Exact: for each class the sum over hidden paths is a linear-chain log-partition.
+
+    Args:
+        model: The fitted `HCRF`.
+        X: (B, T, D) padded features, one pre-segmented sequence per row.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+
+    Returns:
+        (B, K) log P(y | x).
+
+    Raises:
+        ValueError: Naming the argument: `X` not (B, T, D) with the model's D, NaN/inf on real
+            frames, an empty batch; `lengths` outside [1, T].
+    """
     Xc, lens = check_batch(X, lengths, n_features=model.n_features)
     return log_probs_jit(model, jnp.asarray(Xc), jnp.asarray(lens))
 
 
 def predict(model: HCRF, X: Float[ArrayLike, "B T D"], lengths: Int[ArrayLike, " B"] | None = None
             ) -> Int[Array, " B"]:
-    """Validated: the most probable class per sequence (B,)."""
+    """The most probable class of every pre-segmented sequence (OAC eq. 5).
+
+    Args:
+        model: The fitted `HCRF`.
+        X: (B, T, D) padded features, one pre-segmented sequence per row.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+
+    Returns:
+        (B,) class indices.
+
+    Raises:
+        ValueError: Naming the argument: `X` not (B, T, D) with the model's D, NaN/inf on real
+            frames, an empty batch; `lengths` outside [1, T].
+    """
     return jnp.argmax(log_probs(model, X, lengths), axis=-1)

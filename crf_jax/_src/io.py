@@ -51,14 +51,38 @@ CODECS = (
 
 
 def save(path: str | Path, model: ChainCRF | HCRF | FCRF | LinearModel) -> Path:
-    """Write `model` to `path` (".npz" appended if absent); return the path written."""
+    """Write a crf_jax model to a model file (kind, structure as JSON, one array per leaf).
+
+    The model is checked as `load` checks it, so what `save` writes always loads.
+
+    Args:
+        path: The file; ".npz" is appended when absent.
+        model: A `ChainCRF`, `HCRF`, `FCRF` or `LinearModel`.
+
+    Returns:
+        The path of the file written.
+
+    Raises:
+        ValueError: Naming `model` when it is none of those types or has non-finite arrays, or
+            naming `path` when it is not a path.
+    """
     return save_model(path, model, CODECS)
 
 
 def load(path: str | Path, model_type: type | None = None) -> ChainCRF | HCRF | FCRF | LinearModel:
     """Read a model written by `save`; its type comes from the file.
 
-    model_type: optionally the class the caller expects; another stored type is then a `ValueError`.
+    Args:
+        path: The file (".npz" appended when absent, as `save` does).
+        model_type: Optionally the class the caller expects.
+
+    Returns:
+        The stored `ChainCRF`, `HCRF`, `FCRF` or `LinearModel`.
+
+    Raises:
+        FileNotFoundError: The file does not exist.
+        ValueError: Naming the file, for a truncated, corrupt, tampered or unknown file, arrays
+            that disagree with the stored structure, or another stored type than `model_type`.
     """
     model = load_model(path, CODECS)
     if model_type is not None and type(model) is not model_type:

@@ -20,7 +20,15 @@ from crf_jax._src.layout import axis_size, check_fields
 
 @dataclasses.dataclass(frozen=True)
 class LinearStructure:
-    """What defines a per-vector linear classifier: K classes, D features."""
+    """What defines a per-vector linear classifier: what a saved model's file stores as JSON.
+
+    Attributes:
+        n_labels: K, classes, >= 1.
+        n_features: D, features, >= 1.
+
+    Raises:
+        ValueError: Naming the field, for a non-integer or a value below 1.
+    """
 
     n_labels: int
     n_features: int
@@ -30,7 +38,16 @@ class LinearStructure:
 
 
 class LinearModel(NamedTuple):
-    """weights (D, K), bias (K,)."""
+    """Per-vector baseline parameters (a pytree): scores s = x @ weights + bias.
+
+    Multinomial logistic regression or a linear SVM (Crammer-Singer multiclass hinge): the
+    per-vector baselines (OAC §5 categorises objects by an SVM on HOG feature vectors). Fit with
+    `fit_linear`.
+
+    Attributes:
+        weights: (D, K) weights.
+        bias: (K,) per-class bias.
+    """
 
     weights: Float[Array, "D K"]
     bias: Float[Array, " K"]
@@ -40,10 +57,21 @@ class LinearModel(NamedTuple):
 
     @property
     def structure(self) -> LinearStructure:
+        """The `LinearStructure` that defines this model."""
         return LinearStructure(self.n_labels, self.n_features)
 
 
-def init_linear(n_features: int, n_labels: int, dtype=jnp.float32) -> LinearModel:
+def init_linear(n_features: int, n_labels: int, dtype: jnp.dtype = jnp.float32) -> LinearModel:
+    """All-zero starting parameters of a linear classifier (both objectives are convex).
+
+    Args:
+        n_features: D, features.
+        n_labels: K, classes.
+        dtype: The arrays' dtype.
+
+    Returns:
+        `LinearModel` with zero weights (D, K) and bias (K,).
+    """
     return LinearModel(jnp.zeros((n_features, n_labels), dtype), jnp.zeros((n_labels,), dtype))
 
 
@@ -80,10 +108,34 @@ def _predict(model, X):
 
 
 def predict(model: LinearModel, X: Float[ArrayLike, "N D"]) -> Int[Array, " N"]:
-    """Validated: argmax class (N,) for X (N, D)."""
+    """The highest-scoring class of every feature vector.
+
+    Args:
+        model: The fitted `LinearModel`.
+        X: (N, D) feature vectors.
+
+    Returns:
+        (N,) class indices.
+
+    Raises:
+        ValueError: Naming `X`: not (N, D) with the model's D, NaN/inf, empty.
+    """
     return _predict(model, _check_X(model, X))
 
 
 def predict_log_proba(model: LinearModel, X: Float[ArrayLike, "N D"]) -> Float[Array, "N K"]:
-    """Validated: log softmax of the scores (N, K) (calibrated for logistic regression only)."""
+    """Class log-probabilities: the log softmax of the scores.
+
+    Calibrated for logistic regression only; for an SVM they are monotone in the scores.
+
+    Args:
+        model: The fitted `LinearModel`.
+        X: (N, D) feature vectors.
+
+    Returns:
+        (N, K) log-probabilities.
+
+    Raises:
+        ValueError: Naming `X`: not (N, D) with the model's D, NaN/inf, empty.
+    """
     return _log_proba(model, _check_X(model, X))

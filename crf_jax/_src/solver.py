@@ -14,7 +14,7 @@ stopping rules holds (so run times can be compared with it one to one):
   overflowing step or features too large for float32). That step is never accepted: the loop stops
   with the last finite parameters and `TrainInfo.diverged` set, and it is never reported as
   `converged`. A non-finite objective at the start stops the loop before the first iteration
-  (`n_iter == 0`). The `fit_*` functions raise or warn on it (`crf_jax.train`).
+  (`n_iter == 0`). The `fit_*` functions raise or warn on it (`train`).
 
 Only what changes the compiled program is static: the optimiser (`method` or `optimizer`),
 `max_iter` (the length of the loss histories) and `memory_size` (the L-BFGS memory). Tolerances,
@@ -42,18 +42,30 @@ _METHODS = ("lbfgs", "adam")
 class FitOptions:
     """How a `fit_*` (or `minimize`) searches; the same fields for every model of crf_jax.
 
-    method: "lbfgs" (`optax.lbfgs(memory_size)`, zoom line search) or "adam"
-        (`optax.adam(learning_rate)`).
-    optimizer: any `optax.GradientTransformation`, used instead of `method` when given (then
-        `learning_rate` and `memory_size` are unused). It is part of the compiled program: reuse
-        the same object to reuse the compilation.
-    max_iter: iterations at most. memory_size: L-BFGS history length.
-    learning_rate: Adam's step size (traced).
-    gtol, delta, period: the gradient and objective stopping rules above (traced).
-    patience, eval_every: early stopping on validation data, when the fit is given some (traced).
-
     The defaults are those of `fit_chain`, `fit_hcrf` and `fit_fcrf`; `fit_linear` defaults to
-    `FitOptions.for_linear(kind)`. Change fields with `dataclasses.replace(options, ...)`.
+    `FitOptions.for_linear(kind)`. Change fields with `dataclasses.replace(options, ...)`. Options
+    are never stored in a model. Only the optimiser, `max_iter` and `memory_size` are static; the
+    rest are traced, so changing them reuses the compiled loop.
+
+    Attributes:
+        method: "lbfgs" (`optax.lbfgs(memory_size)`, zoom line search) or "adam"
+            (`optax.adam(learning_rate)`).
+        optimizer: Any `optax.GradientTransformation`, used instead of `method` when given (then
+            `learning_rate` and `memory_size` are unused). It is part of the compiled program:
+            reuse the same object to reuse the compilation.
+        max_iter: Iterations at most, >= 1.
+        memory_size: L-BFGS history length, >= 1.
+        learning_rate: Adam's step size, > 0 (traced).
+        gtol: Stop when ||g|| / max(1, ||params||) < gtol (traced).
+        delta: Stop when (f_{k-period} - f_k) / |f_k| < delta (traced).
+        period: Iterations over which `delta` measures the improvement, >= 1 (traced).
+        patience: Early stopping after this many validation evaluations without improvement,
+            >= 1 (traced), when the fit is given validation data.
+        eval_every: Iterations between validation evaluations, >= 1 (traced).
+
+    Raises:
+        ValueError: Naming the field, for an unknown method, an optimizer that is not an optax
+            GradientTransformation, or a value of the wrong type or outside its range.
     """
 
     method: str = "lbfgs"
@@ -86,10 +98,22 @@ class FitOptions:
             object.__setattr__(self, name, value)
 
     @classmethod
-    def for_linear(cls, kind: str = "logistic", **changes) -> FitOptions:
-        """`fit_linear`'s defaults for `kind`: L-BFGS for the smooth logistic loss, Adam (learning
-        rate 0.01) for the non-smooth SVM hinge; 500 iterations, delta 1e-6, patience 10. `changes`
-        override any field."""
+    def for_linear(cls, kind: str = "logistic", **changes: Any) -> FitOptions:
+        """`fit_linear`'s defaults for `kind`.
+
+        L-BFGS for the smooth logistic loss, Adam (learning rate 0.01) for the non-smooth SVM
+        hinge; 500 iterations, delta 1e-6, patience 10.
+
+        Args:
+            kind: "logistic" or "svm".
+            **changes: Fields that override those defaults.
+
+        Returns:
+            The `FitOptions`.
+
+        Raises:
+            ValueError: Naming `kind` when it is neither, or the field of an invalid change.
+        """
         check_choice(kind, "kind", ("logistic", "svm"))
         base = dict(method="lbfgs" if kind == "logistic" else "adam", max_iter=500, learning_rate=0.01,
                     delta=1e-6, patience=10)
@@ -97,19 +121,35 @@ class FitOptions:
 
 
 class TrainInfo(NamedTuple):
-    """What `minimize` did. Histories have one slot per iteration; unused slots are NaN."""
+    """What `minimize` (and so every `fit_*`) did. Histories have one slot per iteration; unused slots are NaN.
 
-    n_iter: Int[Array, ""]  # iterations run
-    converged: Bool[Array, ""]  # a tolerance stopped the loop (never set with a non-finite objective)
-    early_stopped: Bool[Array, ""]  # validation patience ran out
-    loss: Float[Array, " max_iter"]  # training objective after each iteration
-    val_loss: Float[Array, " max_iter"]  # validation objective where evaluated
-    best_iter: Int[Array, ""]  # iteration whose parameters were returned
-    diverged: Bool[Array, ""]  # objective, gradient or parameters became non-finite: stopped, last finite point kept
+    Attributes:
+        n_iter: () iterations run.
+        converged: () a tolerance stopped the loop (never set with a non-finite objective).
+        early_stopped: () validation patience ran out.
+        loss: (max_iter,) training objective after each iteration.
+        val_loss: (max_iter,) validation objective where evaluated.
+        best_iter: () iteration whose parameters were returned.
+        diverged: () objective, gradient or parameters became non-finite: stopped, last finite
+            point kept.
+    """
+
+    n_iter: Int[Array, ""]
+    converged: Bool[Array, ""]
+    early_stopped: Bool[Array, ""]
+    loss: Float[Array, " max_iter"]
+    val_loss: Float[Array, " max_iter"]
+    best_iter: Int[Array, ""]
+    diverged: Bool[Array, ""]
 
 
 class FitResult(NamedTuple):
-    """What every `fit_*` and `minimize` return: the fitted parameters pytree (the model) and TrainInfo."""
+    """What every `fit_*` and `minimize` return.
+
+    Attributes:
+        model: The fitted parameters pytree (the model).
+        info: The `TrainInfo` of the search.
+    """
 
     model: Any
     info: TrainInfo
@@ -153,11 +193,27 @@ def minimize(
     *,
     val_objective: Callable[[Any, Any], Array] | None = None,
 ) -> FitResult:
-    """Minimise `objective(params, data)` (a scalar) from `params`; returns FitResult(params, TrainInfo).
+    """Minimise `objective(params, data)` (a scalar) from `params`, the whole loop in one jit.
 
-    `objective` and `val_objective` must be hashable (module-level functions or `functools.partial`
-    of them with hashable arguments); `data` / `val_data` are pytrees of arrays passed to them.
-    `val_objective` defaults to `objective`; `options` to `FitOptions()`.
+    The solver every `fit_*` shares: optax L-BFGS, Adam or any optax optimiser, stopped by
+    CRFsuite's rules (gradient, objective, `max_iter`), early stopping on validation data, or
+    divergence (a non-finite objective, gradient or step is never accepted).
+
+    Args:
+        objective: (params, data) -> scalar; hashable (a module-level function or a
+            `functools.partial` of one with hashable arguments).
+        params: The starting parameters pytree.
+        data: A pytree of arrays passed to `objective`.
+        val_data: A pytree of arrays passed to `val_objective` for early stopping, or None.
+        options: `FitOptions`; None: `FitOptions()`.
+        val_objective: Hashable like `objective`; None: `objective`.
+
+    Returns:
+        `FitResult(params, TrainInfo)`: the best parameters seen (by validation objective, when
+        given), and what the search did.
+
+    Raises:
+        ValueError: Naming `options`, when it is not a crf_jax.FitOptions.
     """
     options = FitOptions() if options is None else options
     if not isinstance(options, FitOptions):

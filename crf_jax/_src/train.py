@@ -4,7 +4,7 @@ Objectives follow CRFsuite's convention: sum over sequences (or vectors) of the 
 log-likelihood (or hinge loss) plus `l2 * ||theta||^2` (CRFsuite's `c2`), so the same `l2` means the
 same optimum in both. `l2` is part of the objective, not of the search: it is a fit argument (traced,
 passed in the objective's data), while how the optimum is searched for is one `FitOptions`
-(`crf_jax.solver`) shared by every `fit_*`. Model-defining arguments (label counts, connectivity,
+(`solver`) shared by every `fit_*`. Model-defining arguments (label counts, connectivity,
 hidden states, the FCRF's inference) are fit arguments too; validation data, when given, is scored
 without the penalty (the NLL alone, a held-out criterion) for early stopping.
 
@@ -21,6 +21,7 @@ import warnings
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from crf_jax._src import chain as chain, fcrf as fcrf, hcrf as hcrf, linear as linear
@@ -147,20 +148,41 @@ def _finish(result: FitResult, fit: str, name: str = "X") -> FitResult:
 def fit_chain(
     X: Float[ArrayLike, "B T D"], y: Int[ArrayLike, "B T"], lengths: Int[ArrayLike, " B"] | None = None, *,
     n_labels: int | None = None, connectivity: int = 0, l2: float = 1.0, validation: tuple | None = None,
-    init: ChainCRF | None = None, options: FitOptions | None = None, mesh=None,
+    init: ChainCRF | None = None, options: FitOptions | None = None, mesh: Mesh | None = None,
 ) -> FitResult:
-    """Fit a linear-chain CRF to per-frame labels. Returns FitResult(ChainCRF, TrainInfo).
+    """Fit a linear-chain CRF to per-frame labels (OAC eqs. 3-4, LfD eqs. 7-8).
 
-    X (B, T, D) padded features, y (B, T) labels in [0, n_labels), lengths (B,) or None.
-    n_labels defaults to max(y) + 1. connectivity C: each label sees x_{t-C..t+C}.
-    l2: CRFsuite's c2 (objective = sum NLL + l2 ||theta||^2). validation: (X_val, y_val[, lengths_val])
-    for early stopping. init: a ChainCRF to start from (default zeros: the objective is convex).
-    options: the search (default `FitOptions()`).
-    mesh: a `jax.sharding.Mesh` (or None: one device). The training sequences are split over its
-    devices (padded to the mesh, padding masked out of the objective: `masked_chain_objective`) and
-    the one jitted search runs data-parallel: each device's NLL and gradient cover its sequences and
-    XLA sums them over the mesh. The fit equals the one-device fit to round-off. With several
-    processes each passes its own sequences.
+    Objective: sum over sequences of the negative log-likelihood plus l2 ||theta||^2 (CRFsuite's
+    c2 convention), convex.
+
+    Args:
+        X: (B, T, D) padded features.
+        y: (B, T) labels in [0, n_labels) on the real frames.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+        n_labels: K; None: max(y) + 1.
+        connectivity: C >= 0: each label sees x_{t-C..t+C}.
+        l2: CRFsuite's c2, >= 0 (objective = sum NLL + l2 ||theta||^2).
+        validation: (X_val, y_val[, lengths_val]) for early stopping, scored by the NLL alone.
+        init: A ChainCRF to start from (default zeros: the objective is convex).
+        options: The search (default `FitOptions()`).
+        mesh: A `jax.sharding.Mesh` (or None: one device). The training sequences are split over
+            its devices (padded to the mesh, padding masked out of the objective) and the one jitted
+            search runs data-parallel: each device's NLL and gradient cover its sequences and XLA
+            sums them over the mesh. The fit equals the one-device fit to round-off. With several
+            processes each passes its own sequences.
+
+    Returns:
+        `FitResult(ChainCRF, TrainInfo)`.
+
+    Raises:
+        ValueError: Naming the argument: shapes, NaN/inf features, labels out of range or
+            non-integral, counts or l2 out of range, a malformed `validation`, an `init` that does
+            not match the data or is not finite, `options` not a FitOptions, `mesh` not a Mesh;
+            naming `X` when the objective is not finite at the start (features too large for
+            float32).
+    Warns:
+        RuntimeWarning: The objective became non-finite after the start: the last finite
+            parameters come back with `info.diverged` set.
     """
     options = _options(options, FitOptions())
     mesh = check_mesh(mesh)
@@ -193,9 +215,30 @@ def fit_hcrf(
     n_labels: int | None = None, n_hidden: int = 3, connectivity: int = 0, l2: float = 1.0, seed: int = 0,
     validation: tuple | None = None, options: FitOptions | None = None,
 ) -> FitResult:
-    """Fit a hidden CRF to one class label per sequence: X (B, T, D), y (B,). Returns FitResult(HCRF, TrainInfo).
+    """Fit a hidden CRF to one class label per pre-segmented sequence (OAC eqs. 5-6).
 
-    Non-convex: `seed` sets the random start. validation: (X_val, y_val[, lengths_val]).
+    Non-convex (hidden states): `seed` sets the random start.
+
+    Args:
+        X: (B, T, D) padded features.
+        y: (B,) class labels in [0, n_labels).
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+        n_labels: K; None: max(y) + 1.
+        n_hidden: H, hidden states per class, >= 1.
+        connectivity: C >= 0: each hidden state sees x_{t-C..t+C}.
+        l2: CRFsuite's c2, >= 0 (objective = sum NLL + l2 ||theta||^2).
+        seed: Integer seed of the random start.
+        validation: (X_val, y_val[, lengths_val]) for early stopping.
+        options: The search (default `FitOptions()`).
+
+    Returns:
+        `FitResult(HCRF, TrainInfo)`.
+
+    Raises:
+        ValueError: Naming the argument, as `fit_chain` does.
+    Warns:
+        RuntimeWarning: The objective became non-finite after the start: the last finite
+            parameters come back with `info.diverged` set.
     """
     options = _options(options, FitOptions())
     n_hidden = check_int(n_hidden, "n_hidden", min_value=1)
@@ -217,11 +260,30 @@ def fit_fcrf(
     connectivity: int = 0, l2: float = 1.0, inference: str = "exact", validation: tuple | None = None,
     options: FitOptions | None = None,
 ) -> FitResult:
-    """Fit a factorial CRF to per-frame action and object labels y_action, y_object (B, T).
+    """Fit a factorial CRF to per-frame action and object labels (OAC eq. 7, "early fusion").
 
-    inference: "exact" (product space) or "loopy" (Bethe log Z from loopy BP, as in the paper); it
-    defines the objective, so it is a fit argument. validation: (X_val, ya_val, yo_val[, lengths_val]).
-    Returns FitResult(FCRF, TrainInfo).
+    Args:
+        X: (B, T, D) padded features (the action and object features concatenated).
+        y_action: (B, T) action labels in [0, n_actions) on the real frames.
+        y_object: (B, T) object labels in [0, n_objects) on the real frames.
+        lengths: (B,) frames per sequence in [1, T], or None (all T).
+        n_actions: Ka; None: max(y_action) + 1.
+        n_objects: Ko; None: max(y_object) + 1.
+        connectivity: C >= 0, for both chains.
+        l2: CRFsuite's c2, >= 0 (objective = sum NLL + l2 ||theta||^2).
+        inference: "exact" (product space) or "loopy" (Bethe log Z from loopy BP, as in the
+            paper); it defines the objective, so it is a fit argument.
+        validation: (X_val, ya_val, yo_val[, lengths_val]) for early stopping.
+        options: The search (default `FitOptions()`).
+
+    Returns:
+        `FitResult(FCRF, TrainInfo)`.
+
+    Raises:
+        ValueError: Naming the argument, as `fit_chain` does, and `inference` when it is neither.
+    Warns:
+        RuntimeWarning: The objective became non-finite after the start: the last finite
+            parameters come back with `info.diverged` set.
     """
     options = _options(options, FitOptions())
     inference = check_choice(inference, "inference", ("exact", "loopy"))
@@ -245,10 +307,29 @@ def fit_linear(
     X: Float[ArrayLike, "N D"], y: Int[ArrayLike, " N"], *, kind: str = "logistic", n_labels: int | None = None,
     l2: float = 1.0, validation: tuple | None = None, options: FitOptions | None = None,
 ) -> FitResult:
-    """Fit a per-vector baseline to X (N, D), y (N,): kind "logistic" or "svm" (multiclass hinge).
+    """Fit a per-vector baseline: multinomial logistic regression or a linear SVM (OAC §5).
 
-    options defaults to `FitOptions.for_linear(kind)`: L-BFGS for the smooth logistic loss and Adam
-    for the non-smooth hinge, 500 iterations. validation: (X_val, y_val). Returns FitResult(LinearModel, TrainInfo).
+    Objective: sum over the N examples of -log softmax(s)_y ("logistic") or the Crammer-Singer
+    multiclass hinge ("svm"), plus l2 ||weights||^2 (the bias is not penalised).
+
+    Args:
+        X: (N, D) feature vectors.
+        y: (N,) class labels in [0, n_labels).
+        kind: "logistic" or "svm".
+        n_labels: K; None: max(y) + 1.
+        l2: The weights' penalty, >= 0.
+        validation: (X_val, y_val) for early stopping.
+        options: The search; None: `FitOptions.for_linear(kind)` (L-BFGS for the smooth logistic
+            loss and Adam for the non-smooth hinge, 500 iterations).
+
+    Returns:
+        `FitResult(LinearModel, TrainInfo)`.
+
+    Raises:
+        ValueError: Naming the argument, as `fit_chain` does, and `kind` when it is neither.
+    Warns:
+        RuntimeWarning: The objective became non-finite after the start: the last finite
+            parameters come back with `info.diverged` set.
     """
     kind = check_choice(kind, "kind", ("logistic", "svm"))
     options = _options(options, FitOptions.for_linear(kind))

@@ -90,8 +90,8 @@ def ours_stage(cfg: BenchConfig, db, queries, tune_q, tune_truth, truth) -> dict
 
     goal = cfg.target_recall + cfg.tune_margin
     t0 = time.perf_counter()
-    tr = hog_jax.tune(jax.random.key(cfg.seed), db, tune_q, cfg.k, goal, cfg.n_bits_grid,
-                      cfg.n_tables_grid, cfg.n_per_table, truth=tune_truth)
+    tr = hog_jax.tune(jax.random.key(cfg.seed), db, tune_q, cfg.k,
+                      hog_jax.TuneOptions(goal, cfg.n_bits_grid, cfg.n_tables_grid, cfg.n_per_table), truth=tune_truth)
     t_tune = time.perf_counter() - t0
     t0 = time.perf_counter()
     index = jax.block_until_ready(hog_jax.build_index(jax.random.key(cfg.seed + 1), db, tr.n_bits, tr.n_tables))

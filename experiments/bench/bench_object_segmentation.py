@@ -97,8 +97,9 @@ def main(argv=None):
     sigma = cfg.sigma * scale
 
     def ours():
-        seg = hog_jax.video.segment_objects(jax.random.key(cfg.seed), gl, gr, hand_l, hand_r, skin, half, sigma,
-                                      max_offset=half[1], blur_sigma=2.0 * scale)
+        seg = hog_jax.video.segment_objects(jax.random.key(cfg.seed), gl, gr, hand_l, hand_r, skin,
+                                            hog_jax.video.ObjectOptions(half, sigma, max_offset=half[1],
+                                                                        blur_sigma=2.0 * scale))
         return np.asarray(seg.masks), np.asarray(seg.found)
 
     def peer(margin):

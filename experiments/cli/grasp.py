@@ -30,7 +30,7 @@ from experiments.grasp_recognition.pieces import hog_features, knn_predict
 from experiments.plotting import plt
 from lfd_common import cache_dir, check_int, enable_compilation_cache, load_arrays, model_path, save_arrays
 from sim.grasping import GRASP_NAMES, check_grasp_class, robot_grasp_for
-from sim.grasping import ViewDatabase, view_database
+from sim.grasping import ViewDatabase, ViewOptions, view_database
 
 DB_KIND = "experiments.cli.GraspDatabase"
 RENDER_SIZE, CROP_SIZE = 128, 64          # experiments.grasp_recognition.Config's render_size and crop_size
@@ -87,7 +87,8 @@ def _settings() -> dict:
 def build_database(path: Path, grasps: tuple[int, ...], views_per_grasp: int) -> GraspDatabase:
     """Render the views of `grasps`, compute their HOG and write the database to `path`."""
     n_azimuth, n_elevation = view_grid(views_per_grasp)
-    views = view_database(grasps, n_azimuth, n_elevation, render_size=RENDER_SIZE, out_size=CROP_SIZE, cache=False,
+    views = view_database(grasps, n_azimuth, n_elevation, ViewOptions(render_size=RENDER_SIZE, out_size=CROP_SIZE),
+                          cache=False,
                           progress=lambda it, total, desc: progress(it, desc=desc, total=total))
     features = hog_features(views.images, views.masks, np.ones(len(views.labels), bool), HOG)
     save_arrays(path, DB_KIND, {**views._asdict(), "features": features},

@@ -79,11 +79,12 @@ def segment_and_track(args, left, right, start: int, options: hog_jax.video.Vide
     if right is None:
         labels = np.asarray(hog_jax.video.segment_recording(models, left, start, options).labels)
         blobs = hog_jax.video.connected_blobs(labels == hog_jax.video.REGIONS.index("skin"), max_blobs=8, min_area=4)
-        tracks, positions = hog_jax.video.track(blobs, SKIN_TARGETS, min_init=2), None
+        tracks, positions = hog_jax.video.track(blobs, SKIN_TARGETS, hog_jax.video.TrackOptions(min_init=2)), None
     else:
         camera = hog_jax.video.StereoCamera(focal_px=args.focal_px, baseline_m=args.baseline_m, width=left.shape[2],
                                       height=left.shape[1])
-        seg = hog_jax.video.segment_stereo(models, left, right, start, camera, options, init=SKIN_TARGETS, min_init=2)
+        tracking = hog_jax.video.HandFaceOptions(init=SKIN_TARGETS, tracking=hog_jax.video.TrackOptions(min_init=2))
+        seg = hog_jax.video.segment_stereo(models, left, right, start, camera, options, tracking)
         labels, positions = np.asarray(seg.left.labels), seg.positions
         tracks = positions.skin_left
     bar.update()

@@ -17,8 +17,6 @@ Shapes: V views, S crop pixels.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from typing import NamedTuple
 
 import cv2
@@ -26,10 +24,10 @@ import numpy as np
 
 from hog_jax import euler_to_quat
 from experiments.data.grasp_tests import clutter_background
-from lfd_common import cache_dir, check_int, check_real, load_arrays, save_arrays
+from lfd_common import Cache, check_int, check_real
 from sim.grasping import GRASP_CLASSES
 from sim.grasping import GraspRenderer, ViewDatabase, crop_hand, hand_center, sphere_camera, view_euler
-from sim.hands import GRASP_POSTURES, posture
+from sim.hands import posture
 from sim.hands import DEFAULT_SHAPE, HandShape, clip_posture
 
 # a hand neither the database's nor the test's: short fingers, thick, narrow palm, a medium skin tone
@@ -86,18 +84,15 @@ def _random_view(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, 
     return crop, mask, azimuth, elevation
 
 
-def _cached(name: str, kind: str, record, settings: dict, build):
-    """`build()`, a NamedTuple of type `record`, stored as `kind` under cache_dir("grasp_views") by `name`
-    and a hash of `settings` (with the grasp postures and the database hand), and reused while they match."""
-    settings = {**settings, "postures": repr(GRASP_POSTURES), "default": repr(DEFAULT_SHAPE), "version": _VERSION}
-    key = hashlib.sha1(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-    path = cache_dir("grasp_views") / f"{name}_{key}.npz"
-    if path.exists():
-        arrays, _, _ = load_arrays(path, kind)
-        return record(**{f: arrays[f] for f in record._fields})
-    out = build()
-    save_arrays(path, kind, out._asdict(), config=settings)
-    return out
+# `sim` holds the grasp postures, the database hand and the renderer; `grasp_tests` the clutter.
+_SETS = Cache("grasp_views", packages=("experiments.data.grasp_database", "experiments.data.grasp_tests", "sim",
+                                       "hog_jax", "lfd_common"), version=_VERSION)
+
+
+def _cached(name: str, settings: dict, build):
+    """`build()`, stored under cache_dir("grasp_views") by `name`, `settings` and the source it runs, and
+    reused while they match."""
+    return _SETS.get(build, set=name, **settings)
 
 
 def _hand_renders(seed: int, stream: int, n_views: int, n_hands: int, size: int, progress, desc: str):
@@ -140,8 +135,7 @@ def randomized_views(n_views_per_grasp: int, n_hands_per_grasp: int, seed: int =
                             labels=np.repeat(np.arange(len(GRASP_CLASSES), dtype=np.int32), n_views),
                             azimuth_deg=az, elevation_deg=el)
 
-    return _cached(f"randomized_{n_views}x{n_hands}_{out_size}px", "sim.ViewDatabase", ViewDatabase, settings,
-                   build)
+    return _cached(f"randomized_{n_views}x{n_hands}_{out_size}px", settings, build)
 
 
 class SceneSet(NamedTuple):
@@ -187,7 +181,7 @@ def randomized_scenes(n_per_grasp: int, n_hands_per_grasp: int, seed: int = 0, f
         return SceneSet(frames, np.repeat(np.arange(len(GRASP_CLASSES), dtype=np.int32), n_views), euler,
                         np.asarray(euler_to_quat(euler)), reach)
 
-    return _cached(f"scenes_{n_views}x{n_hands}_{size}px", "experiments.SceneSet", SceneSet, settings, build)
+    return _cached(f"scenes_{n_views}x{n_hands}_{size}px", settings, build)
 
 
 def concatenate_databases(*dbs: ViewDatabase) -> ViewDatabase:

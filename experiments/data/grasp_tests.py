@@ -23,18 +23,16 @@ are random. Sets are cached under `lfd_common.cache_dir("grasp_tests")` keyed by
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from typing import NamedTuple
 
 import cv2
 import numpy as np
 
-from lfd_common import cache_dir, check_int, check_real, load_arrays, save_arrays
+from lfd_common import Cache, check_int, check_real
 from sim.grasping import GRASP_CLASSES
 from hog_jax import euler_to_quat
 from sim.grasping import GraspRenderer, hand_center, sphere_camera, view_euler
-from sim.hands import GRASP_POSTURES, posture
+from sim.hands import posture
 from sim.hands import DEFAULT_SHAPE, TEST_SHAPE, HandShape, clip_posture
 
 STAGES: tuple[str, ...] = ("starting to reach", "about to grasp", "grasp completed")
@@ -123,23 +121,22 @@ def _render_one(renderer: GraspRenderer, rng: np.random.Generator, grasp: int, s
     return np.clip(np.round(img), 0, 255).astype(np.uint8), hand
 
 
-def _nuisance_key(nuisances: Nuisances) -> dict:
-    """Cache-key entries of the nuisances; none for the full test conditions (their sets keep their keys)."""
+def _check_nuisances(nuisances: Nuisances) -> Nuisances:
+    """`nuisances`, checked to be a `Nuisances` (a NamedTuple of bools, keyed by value)."""
     if not isinstance(nuisances, Nuisances):
         raise ValueError(f"nuisances: expected a Nuisances, got {type(nuisances).__name__}")
-    return {} if nuisances == ALL_NUISANCES else {"nuisances": repr(tuple(nuisances))}
+    return nuisances
+
+
+# `sim` holds the grasp postures, the hands and the renderer.
+_SETS = Cache("grasp_tests", packages=("experiments.data.grasp_tests", "sim", "hog_jax", "lfd_common"),
+              version=_VERSION)
 
 
 def _cached(name: str, settings: dict, build):
-    key = hashlib.sha1(json.dumps({**settings, "version": _VERSION, "shape": repr(settings.get("shape")),
-                                   "postures": repr(GRASP_POSTURES)}, sort_keys=True, default=repr).encode()).hexdigest()[:16]
-    path = cache_dir("grasp_tests") / f"{name}_{key}.npz"
-    if path.exists():
-        arrays, _, _ = load_arrays(path, "experiments.GraspTestSet")
-        return GraspTestSet(**{f: arrays[f] for f in GraspTestSet._fields})
-    out = build()
-    save_arrays(path, "experiments.GraspTestSet", out._asdict(), config={k: repr(v) for k, v in settings.items()})
-    return out
+    """`build()`, stored under cache_dir("grasp_tests") by `name`, `settings` and the source it runs, and
+    reused while they match."""
+    return _SETS.get(build, set=name, **settings)
 
 
 def _render_set(rng, grasp_idx, stages, azimuths, elevations, frame, shape, joint_noise_deg, nuisances, progress):
@@ -193,7 +190,7 @@ def sequence_set(seed: int = 0, frame_size: int = 160, shape: HandShape = TEST_S
                            joint_noise_deg, nuisances, progress)
 
     return _cached("X", dict(seed=seed, frame_size=frame_size, shape=shape, joint_noise_deg=joint_noise_deg,
-                             view_jitter_deg=view_jitter_deg, **_nuisance_key(nuisances)), build)
+                             view_jitter_deg=view_jitter_deg, nuisances=_check_nuisances(nuisances)), build)
 
 
 def random_set(n: int, seed: int = 0, frame_size: int = 160, shape: HandShape = TEST_SHAPE,
@@ -215,7 +212,7 @@ def random_set(n: int, seed: int = 0, frame_size: int = 160, shape: HandShape = 
                            shape, joint_noise_deg, nuisances, progress)
 
     return _cached(f"random{n}", dict(n=n, seed=seed, frame_size=frame_size, shape=shape, lo=lo, hi=hi,
-                                      joint_noise_deg=joint_noise_deg, **_nuisance_key(nuisances)), build)
+                                      joint_noise_deg=joint_noise_deg, nuisances=_check_nuisances(nuisances)), build)
 
 
 # skin tones for the skin colour model: lighter than, equal to and darker than the database hand,

@@ -8,7 +8,7 @@ import numpy as np
 from experiments.grasp_mapping.config import Config, conditions, trial_table
 from sim.grasping import GRASP_NAMES, VOLAR_GRASPS
 from sim.grasping import rollout_grasps
-from sim.grasping import plan_trials
+from sim.grasping import PlanOptions, plan_trials
 from sim.hands import hand_spec
 from sim.hands import human_entities, vf_errors
 
@@ -17,7 +17,7 @@ def run_hand(cfg: Config, hand: str, backend: str) -> dict:
     """Plan, roll out and evaluate every trial of `hand`; return per-trial arrays and timings."""
     table = trial_table(cfg)
     params, object_start = plan_trials(hand, table["grasp"], table["offset"], table["tilt"], table["tactile"],
-                                       table["seed"], mapping=cfg.mapping)
+                                       table["seed"], options=PlanOptions(mapping=cfg.mapping))
     start = time.perf_counter()
     out = rollout_grasps(hand, params, object_start, backend=backend, nthread=cfg.nthread)
     rollout_s = time.perf_counter() - start

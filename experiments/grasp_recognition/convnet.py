@@ -18,8 +18,6 @@ Shapes: N crops, S x S pixels (S a multiple of 16), M classes.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from functools import partial
 from typing import NamedTuple
 
@@ -28,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from lfd_common import as_array, cache_dir, check_int, load_arrays, save_arrays
+from lfd_common import Cache, as_array, check_int
 
 _HIDDEN = 256
 _DROPOUT_KEEP = 0.7
@@ -176,16 +174,14 @@ def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256, context
                            for i in range(0, len(x), chunk)])
 
 
+# The scene convnet's `train` renders scenes (`sim`, the grasp sets) and segments them (`hog_jax`).
+_NETS = Cache("grasp_cnn", packages=("experiments.grasp_recognition", "experiments.data.grasp_database",
+                                     "experiments.data.grasp_tests", "sim", "hog_jax", "lfd_common"), version=_VERSION)
+
+
 def cached_convnet(settings: dict, train, context: bool = False) -> ConvClassifier:
-    """The network `train()` returns, stored under cache_dir('grasp_cnn') by a hash of `settings` (what
-    determines the training data and the training: JSON-serialisable) and reused while they match;
-    `context`: whether it is trained on the unmasked boxes (part of the key)."""
-    tagged = {**settings, "version": _VERSION, **({"context": True} if context else {})}
-    key = hashlib.sha1(json.dumps(tagged, sort_keys=True).encode()).hexdigest()[:16]
-    path = cache_dir("grasp_cnn") / f"convnet_{key}.npz"
-    if path.exists():
-        arrays, _, _ = load_arrays(path, "experiments.ConvClassifier")
-        return ConvClassifier(arrays, context)
-    clf = train()
-    save_arrays(path, "experiments.ConvClassifier", clf.params, config=settings)
-    return clf
+    """The network `train()` returns, stored under cache_dir('grasp_cnn') by `settings` (what determines
+    the training data and the training: str-keyed, values keyable by `lfd_common.Cache`, arrays by
+    content) and the source it runs, and reused while they match; `context`: whether it is trained on
+    the unmasked boxes (part of the key)."""
+    return _NETS.get(train, settings=settings, context=context)

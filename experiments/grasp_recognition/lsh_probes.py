@@ -41,8 +41,8 @@ def main() -> None:
     exact = hog_jax.exact_search(rec.model.data, held_out, cfg.k)
     for probes in (0, 2, 4, 8):
         for target in (0.8, 0.9):
-            t = hog_jax.tune(jax.random.key(2), rec.model.data, q[:half], k=cfg.k, target_recall=target,
-                             n_probes=probes)
+            t = hog_jax.tune(jax.random.key(2), rec.model.data, q[:half], k=cfg.k,
+                             options=hog_jax.TuneOptions(target_recall=target, n_probes=probes))
             index = hog_jax.build_index(jax.random.key(3), rec.model.data, t.n_bits, t.n_tables)
             run = lambda: hog_jax.query(index, held_out, cfg.k, t.n_per_table, t.n_tables, t.max_rerank, probes)
             recall = hog_jax.recall_at_k(np.asarray(run().indices), np.asarray(exact.indices))

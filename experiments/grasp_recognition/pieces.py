@@ -13,7 +13,7 @@ from experiments.config import progress
 from experiments.grasp_recognition.config import Config, parse_grid
 from lfd_common import quat_to_matrix
 from sim.grasping import GRASP_CLASSES, GRASP_MAPPINGS
-from sim.grasping import render_views, view_database
+from sim.grasping import ViewOptions, render_views, view_database
 
 
 def bar(desc):
@@ -21,7 +21,8 @@ def bar(desc):
 
 
 def render_database(cfg: Config, n_azimuth: int, n_elevation: int):
-    return view_database(GRASP_CLASSES, n_azimuth, n_elevation, render_size=cfg.render_size, out_size=cfg.crop_size,
+    return view_database(GRASP_CLASSES, n_azimuth, n_elevation,
+                         ViewOptions(render_size=cfg.render_size, out_size=cfg.crop_size),
                          progress=lambda it, total, desc: progress(it, desc=desc, total=total))
 
 
@@ -50,8 +51,8 @@ def held_out_views(cfg: Config):
     """Database-like views (database hand, black background) at random off-grid viewpoints, to tune LSH."""
     rng = np.random.default_rng([cfg.seed, 5, 9])
     per = max(1, cfg.n_held_out // len(GRASP_CLASSES))
-    parts = [render_views(g, rng.uniform(0, 360, per), rng.uniform(0, 90, per), render_size=cfg.render_size,
-                          out_size=cfg.crop_size) for g in GRASP_CLASSES]
+    parts = [render_views(g, rng.uniform(0, 360, per), rng.uniform(0, 90, per),
+                          ViewOptions(render_size=cfg.render_size, out_size=cfg.crop_size)) for g in GRASP_CLASSES]
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 

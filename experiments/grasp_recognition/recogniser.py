@@ -2,7 +2,6 @@
 the kNN model (eqs. 3-5) and the tuned LSH index; `recognise` gives class and orientation per crop."""
 from __future__ import annotations
 
-import hashlib
 from typing import Any, NamedTuple
 
 import jax
@@ -81,8 +80,8 @@ def build_recogniser(cfg: Config, key, db, tune_images: Crops | None, skin=None)
         return Recogniser(hcfg, metric, model, {}, None, cfg.k, db, net)
     t = tune_images
     q = transformed(metric, hog_features(t.images, t.masks, t.found, hcfg)[t.found])
-    tune = hog_jax.tune(jax.random.fold_in(key, 2), x, q, k=cfg.k, target_recall=cfg.lsh_target_recall,
-                        n_probes=cfg.lsh_probes)
+    tune = hog_jax.tune(jax.random.fold_in(key, 2), x, q, k=cfg.k,
+                        options=hog_jax.TuneOptions(target_recall=cfg.lsh_target_recall, n_probes=cfg.lsh_probes))
     index = hog_jax.build_index(jax.random.fold_in(key, 3), x, tune.n_bits, tune.n_tables)
     lsh = dict(index=index, n_per_table=tune.n_per_table, n_tables=tune.n_tables, max_rerank=tune.max_rerank,
                n_probes=cfg.lsh_probes)
@@ -91,10 +90,8 @@ def build_recogniser(cfg: Config, key, db, tune_images: Crops | None, skin=None)
 
 def trained_convnet(cfg: Config, db) -> ConvClassifier:
     """The convnet trained on the database `db` (cached by the database's content and the settings)."""
-    digest = hashlib.sha1()
-    for a in (db.images, db.masks, db.labels):
-        digest.update(np.ascontiguousarray(a).tobytes())
-    settings = dict(database=digest.hexdigest(), seed=cfg.seed, width=cfg.cnn_width, epochs=cfg.cnn_epochs)
+    settings = dict(database=(db.images, db.masks, db.labels), seed=cfg.seed, width=cfg.cnn_width,
+                    epochs=cfg.cnn_epochs)
     return cached_convnet(settings, lambda: fit_convnet(
         db.images, db.masks, db.labels, len(GRASP_CLASSES), cfg.seed, cfg.cnn_width, cfg.cnn_epochs,
         progress=lambda it, total: progress(it, desc="train convnet", total=total)))
@@ -105,10 +102,7 @@ def trained_scene_convnet(cfg: Config, skin) -> ConvClassifier:
     `cfg.n_scenes` rendered scenes per grasp (`randomized_scenes`, `cfg.n_scene_hands` hands each)
     segmented by `skin` as the queries are (cfg.skin_adaptation); cached by the scenes' settings, the
     skin model's arrays and the training settings (the segmentation runs only to train)."""
-    digest = hashlib.sha1()
-    for a in jax.tree_util.tree_leaves(skin):
-        digest.update(np.ascontiguousarray(np.asarray(a)).tobytes())
-    settings = dict(scenes=cfg.n_scenes, hands=cfg.n_scene_hands, frame=cfg.frame_size, skin=digest.hexdigest(),
+    settings = dict(scenes=cfg.n_scenes, hands=cfg.n_scene_hands, frame=cfg.frame_size, skin=skin,
                     adaptation=cfg.skin_adaptation, crop=cfg.crop_size, seed=cfg.seed, width=cfg.cnn_width,
                     epochs=cfg.cnn_epochs)
 

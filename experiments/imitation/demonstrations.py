@@ -12,11 +12,6 @@ the way back shifted to start from there. Deterministic from the seeds; cached u
 """
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import inspect
-import json
-import sys
 from typing import NamedTuple
 
 import numpy as np
@@ -26,7 +21,8 @@ from experiments.data.oac.motion import min_jerk
 from experiments.data.video import kinematics as kin
 from experiments.data.video import render as vrender
 from experiments.data.video.people import TABLE
-from lfd_common import cache_dir, check_int, check_real
+from experiments.data.video.settings import SOURCE_PACKAGES
+from lfd_common import Cache, check_int, check_real
 from sim.grasping import GRASP_CLASSES
 from sim.hands import GRASP_POSTURES
 from sim.hands import NEUTRAL_POSTURE_DEG, clip_posture
@@ -178,15 +174,9 @@ def demo_track(who, demo: Demo, settings: video.VideoSettings) -> kin.Track:
     return _transfer(who, track, demo, settings) if demo.kind == "transfer" else track
 
 
-_SOURCES = ("experiments.imitation.demonstrations",) + vrender._SOURCES
-
-
-def cache_path(settings: video.VideoSettings, demo: Demo):
-    code = hashlib.sha1("".join(inspect.getsource(sys.modules[m]) for m in _SOURCES).encode()).hexdigest()
-    key = json.dumps({"code": code, "settings": dataclasses.asdict(settings),
-                      "demo": [demo.kind, demo.person, demo.seed, np.round(demo.objects_xy, 6).tolist(), demo.target,
-                               demo.grasp, np.round(demo.place_xy, 6).tolist()]}, sort_keys=True, default=float)
-    return cache_dir("imitation_video") / f"demo_{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
+# `experiments.plotting` comes in with the video package's `outputs`.
+DEMO_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + ("experiments.imitation.demonstrations", "experiments.plotting")
+_DEMOS = Cache("imitation_video", packages=DEMO_PACKAGES, compress=True)  # noise-free images compress well
 
 
 def render_demo(settings: video.VideoSettings, demo: Demo, cache: bool = True, progress=None) -> video.Recording:
@@ -196,18 +186,17 @@ def render_demo(settings: video.VideoSettings, demo: Demo, cache: bool = True, p
         raise ValueError(f"settings: expected a VideoSettings, got {type(settings).__name__}")
     demo = check_demo(demo, settings)
     script = _gesture_script(demo)
-    path = cache_path(settings, demo)
-    if cache and path.exists():
-        return vrender._camera_noise(vrender._load(path), settings, script)
-    scenes = vrender._Scenes(settings)
-    try:
-        who = _demo_actor(scenes, demo)
-        rec = vrender._render(scenes.scene(demo.person), who, demo_track(who, demo, settings), settings, script,
-                              progress)
-    finally:
-        scenes.close()
-    if cache:
-        vrender._save(path, rec)
+
+    def render() -> video.Recording:
+        scenes = vrender._Scenes(settings)
+        try:
+            who = _demo_actor(scenes, demo)
+            return vrender._render(scenes.scene(demo.person), who, demo_track(who, demo, settings), settings,
+                                   script, progress)
+        finally:
+            scenes.close()
+
+    rec = _DEMOS.get(render, enabled=cache, settings=settings, demo=demo)
     return vrender._camera_noise(rec, settings, script)
 
 

@@ -15,8 +15,6 @@ PHMMs' observation noise and the detector's threshold are chosen on validation d
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from typing import NamedTuple
 
@@ -27,10 +25,10 @@ import numpy as np
 import phmm_jax as P
 from experiments.data import video
 from experiments.imitation.config import Config
-from experiments.imitation.demonstrations import (AREA_X, AREA_Y, KINDS, MIN_GAP_M, N_OBJECTS, Demo, cache_path,
-                                                  free, demo_track, table_z)
+from experiments.imitation.demonstrations import (AREA_X, AREA_Y, DEMO_PACKAGES, KINDS, MIN_GAP_M, N_OBJECTS,
+                                                  Demo, free, demo_track, table_z)
 from experiments.lfd_demonstration.features import held
-from lfd_common import cache_dir, write_npz
+from lfd_common import Cache
 
 _LO, _HI = np.array([AREA_X[0], AREA_Y[0]]), np.array([AREA_X[1], AREA_Y[1]])
 GRID = (3, 3)
@@ -66,35 +64,34 @@ class Tracked(NamedTuple):
     start: int
 
 
-def _track_path(cfg: Config, settings, demo: Demo):
-    from experiments.lfd_demonstration.clips import source_digest
-
-    blob = json.dumps({"video": cache_path(settings, demo).name, "pad": cfg.pad_frames, "seed": cfg.seed,
-                       "skin": [cfg.n_persons, cfg.n_skin_persons], "coarse": cfg.coarse_scale,
-                       "min_blob": cfg.min_blob_px_160,
-                       "code": source_digest()}, sort_keys=True)
-    return cache_dir("imitation_tracks") / f"track_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
+# The rendering (the recording is a function of the settings and the demonstration) and the video front end
+# of `experiments.lfd_demonstration.front` with what it imports.
+TRACK_PACKAGES: tuple[str, ...] = DEMO_PACKAGES + (
+    "experiments.imitation.pipeline", "experiments.imitation.config", "experiments.lfd_demonstration.front",
+    "experiments.lfd_demonstration.features", "experiments.lfd_demonstration.config",
+    "experiments.lfd_demonstration.evaluate", "experiments.video_segmentation", "experiments.peers",
+    "experiments.data.cdnet", "hog_jax")
+_TRACKS = Cache("imitation_tracks", packages=TRACK_PACKAGES)
 
 
 def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> Tracked:
     """The recording through the video front end of `experiments.lfd_demonstration` (cached per
-    demonstration and front-end code)."""
+    settings, demonstration, skin model, front-end settings and the source of `TRACK_PACKAGES`; `rec`,
+    a function of the settings and the demonstration, stays out of the key)."""
     from experiments.lfd_demonstration.front import front_end, hand_tracks
 
-    path = _track_path(cfg, settings, demo)
-    if path.exists():
-        with np.load(path) as z:
-            return Tracked(z["diff"], z["found"], z["hand_rc"], int(z["start"]))
-    _, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + demo.seed % 100_000),
-                                    cfg.pad_frames, cfg.coarse_scale, min_blob_area(cfg, rec.left.shape[1:3]))
-    hand_l, _, _ = hand_tracks(positions, start)
-    found = np.asarray(positions.found_3d, bool).copy()
-    found[:start] = False
-    rot = camera_rotation(rec.P_left)
-    diff = np.where(found[:, None], np.asarray(positions.xyz, np.float64) @ rot, 0.0)  # R^T x per row
-    out = Tracked(diff.astype(np.float32), found, hand_l.astype(np.float32), int(start))
-    write_npz(path, **out._asdict())
-    return out
+    def run() -> Tracked:
+        _, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + demo.seed % 100_000),
+                                        cfg.pad_frames, cfg.coarse_scale, min_blob_area(cfg, rec.left.shape[1:3]))
+        hand_l, _, _ = hand_tracks(positions, start)
+        found = np.asarray(positions.found_3d, bool).copy()
+        found[:start] = False
+        rot = camera_rotation(rec.P_left)
+        diff = np.where(found[:, None], np.asarray(positions.xyz, np.float64) @ rot, 0.0)  # R^T x per row
+        return Tracked(diff.astype(np.float32), found, hand_l.astype(np.float32), int(start))
+
+    fields = {k: getattr(cfg, k) for k in ("seed", "pad_frames", "coarse_scale", "min_blob_px_160")}
+    return _TRACKS.get(run, settings=settings, demo=demo, rgb_skin=rgb_skin, cfg=fields)
 
 
 def min_blob_area(cfg: Config, shape: tuple[int, int]) -> int:
@@ -220,7 +217,7 @@ def train_phmms(cfg: Config, settings, seed: int) -> list[P.PHMM]:
 def recognizer(phmms, sigma_m: float, threshold_m: float, window: int) -> P.OnlineRecognizer:
     """The online recogniser (BMVC §5.4) of the class PHMMs (`KINDS` order) with observation noise sigma_m (m)."""
     return P.online_recognizer([P.with_observation_noise(p, sigma_m ** 2) for p in phmms[:len(KINDS)]], threshold_m,
-                               window=window)
+                               options=P.OnlineOptions(window=window))
 
 
 def reach_target(reach_phmm: P.PHMM, segment: np.ndarray) -> np.ndarray | None:

@@ -3,10 +3,6 @@ recogniser, the PHMMs, the settings chosen on validation demonstrations, every e
 through the loop (`run_demo`), the metrics, the report and a side-by-side video."""
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import inspect
-import json
 import time
 import types
 from typing import Any, NamedTuple
@@ -16,13 +12,12 @@ import numpy as np
 import phmm_jax as P
 import sim
 from experiments.config import parse_config, progress
-from experiments.data import video
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
 from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser
 from experiments.imitation.place import place_reader
-from lfd_common import cache_dir, enable_compilation_cache
+from lfd_common import Cache, enable_compilation_cache
 from sim.grasping import GRASP_CLASSES
 
 STAGES = ("tracking", "action", "target", "grasp", "place")  # recognition stages, in the loop's order
@@ -55,25 +50,16 @@ def skin_models(cfg: Config, settings):
     return chroma, rgb
 
 
-def _phmm_path(cfg: Config, settings):
-    fields = {k: getattr(cfg, k) for k in ("seed", "n_persons", "n_skin_persons", "handover_xy", "n_states",
-                                           "train_repetitions", "phmm_iter")}
-    code = inspect.getsource(pl) + inspect.getsource(demo_track) + inspect.getsource(video.render)
-    blob = json.dumps({"cfg": fields, "settings": dataclasses.asdict(settings),
-                       "code": hashlib.sha1(code.encode()).hexdigest()}, sort_keys=True, default=float)
-    return cache_dir("imitation_phmm") / f"phmms_{hashlib.sha1(blob.encode()).hexdigest()[:16]}"
+# `pipeline.train_phmms` runs the demonstrations' kinematics and `phmm_jax`; the pipeline module's import
+# closure is `TRACK_PACKAGES` and `phmm_jax`.
+_PHMMS = Cache("imitation_phmm", packages=pl.TRACK_PACKAGES + ("phmm_jax",))
 
 
 def phmm_models(cfg: Config, settings) -> list:
-    """The PHMMs trained on kinematics of their own seed (`pipeline.train_phmms`), cached."""
-    path = _phmm_path(cfg, settings)
-    files = [path.with_name(f"{path.name}_{k}.npz") for k in range(pl.REACH + 1)]
-    if all(f.exists() for f in files):
-        return [P.load(f) for f in files]
-    phmms = pl.train_phmms(cfg, settings, cfg.seed + _TRAIN_SEED)
-    for f, m in zip(files, phmms):
-        P.save(f, m)
-    return phmms
+    """The PHMMs trained on kinematics of their own seed (`pipeline.train_phmms`), cached (one file)."""
+    fields = {k: getattr(cfg, k) for k in ("seed", "n_persons", "n_skin_persons", "handover_xy", "n_states",
+                                           "train_repetitions", "phmm_iter")}
+    return _PHMMS.get(lambda: pl.train_phmms(cfg, settings, cfg.seed + _TRAIN_SEED), cfg=fields, settings=settings)
 
 
 def tracked_demo(cfg, settings, demo, rgb_skin):
@@ -166,7 +152,7 @@ def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, phmms, render: bool = 
     `sim.TaskResult`."""
     spec = task_spec(cfg, demo, r)
     path = pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target]) if cfg.approach == "phmm" else None
-    return sim.run_task(spec, approach_path=path, seed=int(demo.seed % 1000), render=render)
+    return sim.run_task(spec, approach_path=path, seed=int(demo.seed % 1000), options=sim.TaskOptions(render=render))
 
 
 # ------------------------------------------------------------------------------------------ per demo

@@ -6,11 +6,6 @@ recordings (`labelling`)."""
 from __future__ import annotations
 
 import dataclasses
-import functools
-import hashlib
-import inspect
-import json
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -18,13 +13,14 @@ import numpy as np
 from experiments.config import progress
 from experiments.data import video
 from experiments.data.oac import OACData
+from experiments.data.video.settings import SOURCE_PACKAGES
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, pipeline_features,
                                                     renderer_features, segment_frames)
 from experiments.oac_recognition import config as oac_config
 from experiments.oac_recognition.models import evaluate
-from lfd_common import cache_dir, write_npz
+from lfd_common import Cache
 
 SOURCES = ("pipeline", "renderer")
 
@@ -38,56 +34,37 @@ def cut_recording(rec: video.Recording, T: int) -> video.Recording:
     return rec._replace(**per_frame)
 
 
-@functools.cache  # once per process: a file edited during a run does not split its cache
-def source_digest() -> str:
-    """The code that makes a clip's features: `features`, `clip_features`, the front end's functions (of
-    `stages` and of the video study) and every file of the hog_jax package (read from disk, so every
-    entry point gets the same key), so an edit of any of them never reuses stale features (edits of
-    the tables, labels, report or figures keep the cache)."""
-    import experiments.lfd_demonstration.features as features
-    import experiments.lfd_demonstration.front as stages
-    import experiments.video_segmentation.stages as front
-    import hog_jax
-
-    package = sorted(Path(hog_jax.__file__).parent.rglob("*.py"))
-    parts = [features, clip_features, stages.front_end, stages.hand_tracks, stages.recording_objects,
-             stages.hand_width, front.skin_stage, front.background_options, front.segmentation_start, front.pad,
-             front.camera_of]
-    text = "".join(f.read_text() for f in package) + "".join(inspect.getsource(m) for m in parts)
-    return hashlib.sha1(text.encode()).hexdigest()
-
-
 # the settings that change a clip's features (not the tables' or the long recordings')
 _FEATURE_FIELDS = ("seed", "video_preset", "n_persons", "n_skin_persons", "pad_frames", "half_window", "blur_sigma",
                    "threshold", "n_samples", "min_hand_motion", "remove_person", "feature_fps")
 
 
-def _cache_path(cfg: Config, settings, spec: FeatureSpec, key: tuple[int, int, int]):
-    video_fields = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("n_scripts", "script_oacs")}
-    blob = json.dumps({"cfg": {k: getattr(cfg, k) for k in _FEATURE_FIELDS}, "settings": video_fields,
-                       "spec": dataclasses.asdict(spec), "clip": key, "code": source_digest()}, sort_keys=True)
-    return cache_dir("lfd_clip_features") / f"clip_{hashlib.sha1(blob.encode()).hexdigest()[:16]}.npz"
-
-
-def _save(path, feats: dict[str, FrameFeatures], hand_found: bool) -> None:
-    write_npz(path, hand_found=hand_found,
-              **{f"{s}_{f}": getattr(feats[s], f) for s in SOURCES for f in FrameFeatures._fields})
-
-
-def _load(path) -> tuple[dict[str, FrameFeatures], bool]:
-    with np.load(path) as z:
-        return ({s: FrameFeatures(*(z[f"{s}_{f}"] for f in FrameFeatures._fields)) for s in SOURCES},
-                bool(z["hand_found"]))
+# The rendering, the features, this module's `clip_features` and the front end of `front` with what it
+# imports (the video study's stages, the peers); the tables', labels', report's and figures' modules stay out.
+CLIP_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + (
+    "experiments.lfd_demonstration.clips", "experiments.lfd_demonstration.features",
+    "experiments.lfd_demonstration.front", "experiments.lfd_demonstration.config",
+    "experiments.lfd_demonstration.evaluate", "experiments.video_segmentation", "experiments.peers",
+    "experiments.data.cdnet", "experiments.plotting", "hog_jax")
+_CLIPS = Cache("lfd_clip_features", packages=CLIP_PACKAGES)
 
 
 def clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple[int, int, int],
                   script) -> tuple[dict[str, FrameFeatures], bool]:
     """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found): the
     clip is cut after its put-down (the front end is causal), run through `recording_objects`; a clip
-    whose hand the front end never finds keeps zero pipeline features (flagged, not dropped)."""
-    path = _cache_path(cfg, settings, spec, key)
-    if path.exists():
-        return _load(path)
+    whose hand the front end never finds keeps zero pipeline features (flagged, not dropped). Cached
+    under `cache_dir("lfd_clip_features")` by the feature settings, the video settings (less the long
+    recordings'), the spec, the clip, its script, the skin model and the source of `CLIP_PACKAGES`."""
+    video_fields = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("n_scripts", "script_oacs")}
+    return _CLIPS.get(lambda: _clip_features(cfg, settings, rgb_skin, spec, key, script),
+                      cfg={k: getattr(cfg, k) for k in _FEATURE_FIELDS}, settings=video_fields, spec=spec,
+                      clip=tuple(key), script=script, rgb_skin=rgb_skin)
+
+
+def _clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple[int, int, int],
+                   script) -> tuple[dict[str, FrameFeatures], bool]:
+    """`clip_features`, computed."""
     rec = video.render_recording(settings, script, progress=progress)
     a, b = int(rec.pickup_frames[0]), int(rec.putdown_frames[0]) + 1
     rec = cut_recording(rec, b)
@@ -99,9 +76,7 @@ def clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple
     out = recording_objects(cfg, settings, rec, rgb_skin, 10_000 + 1000 * person + 100 * cls + rep, peer=False)
     pipeline = (pick(pipeline_features(out, spec)) if out is not None
                 else FrameFeatures(*(np.zeros_like(x) for x in renderer)))
-    feats = {"pipeline": pipeline, "renderer": renderer}
-    _save(path, feats, out is not None)
-    return feats, out is not None
+    return {"pipeline": pipeline, "renderer": renderer}, out is not None
 
 
 class ClipSet(NamedTuple):

@@ -12,7 +12,8 @@ from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.evaluate import hand_width, truth_windows
 from experiments.peers.object_peer import peer_object_masks
 from experiments.video_segmentation.stages import background_options, camera_of, pad, segmentation_start
-from hog_jax.video import HAND, PERSON, SKIN, VideoOptions, fit_video_models, segment_stereo
+from hog_jax.video import (HAND, PERSON, SKIN, HandFaceOptions, ObjectOptions, TrackOptions, VideoOptions,
+                           fit_video_models, segment_stereo)
 
 
 def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool = True, min_area: int = 4):
@@ -23,7 +24,8 @@ def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool 
     start = segmentation_start(settings)
     left, right, T = pad(rec, pad_frames)
     models, _ = fit_video_models(key, rgb_skin, left, start, options)
-    seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3, min_area=min_area)
+    tracking = HandFaceOptions(min_area=min_area, tracking=TrackOptions(min_init=3))
+    seg = segment_stereo(models, left, right, start, camera_of(rec), options, tracking)
     cut = lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a
     return cut(seg.left.labels), jax.tree.map(cut, seg.positions), start
 
@@ -52,10 +54,10 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bo
     sigma = hand_width(np.asarray(positions.skin_left.cov)[:, HAND], observed)
     gl, gr = video.grey(rec.left), video.grey(rec.right)
     removed = (labels == SKIN) | ((labels == PERSON) if cfg.remove_person else False)  # not the object
-    ours = hog_jax.video.segment_objects(jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, removed, half,
-                                   sigma, max_offset=half[1], blur_sigma=cfg.blur_sigma * scale,
-                                   n_samples=cfg.n_samples, threshold=cfg.threshold,
-                                   min_hand_motion=cfg.min_hand_motion * scale)
+    ours = hog_jax.video.segment_objects(
+        jax.random.key(cfg.seed + 1000 + index), gl, gr, hand_l, hand_r, removed,
+        ObjectOptions(half, sigma, max_offset=half[1], blur_sigma=cfg.blur_sigma * scale, n_samples=cfg.n_samples,
+                      threshold=cfg.threshold, min_hand_motion=cfg.min_hand_motion * scale))
     gate = lambda masks, found: (masks & tracked[:, None, None], found & tracked)
     return {"ours": gate(np.asarray(ours.masks), np.asarray(ours.found)),
             "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, removed, half)) if peer else None,

@@ -13,7 +13,7 @@ import sim, hog_jax
 from experiments.data import video
 from experiments.video_segmentation.stages import camera_of, segmentation_start, background_options, pad
 from experiments.video_segmentation.evaluate import evaluate_clip, TRACKED
-from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_stereo
+from hog_jax.video import HandFaceOptions, TrackOptions, VideoOptions, fit_skin, fit_video_models, segment_stereo
 from lfd_common import enable_compilation_cache
 
 out, pairs, over = sys.argv[1], [tuple(map(int, s.split(":"))) for s in sys.argv[2].split(",")], json.loads(sys.argv[3])
@@ -45,7 +45,8 @@ for n, (p, c) in enumerate(pairs):
     rec = recs[p, c]
     left, right, T = pad(rec, 50)
     models, _ = fit_video_models(jax.random.key(1 + n), rgb_skin, left, start, options)
-    seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
+    seg = segment_stereo(models, left, right, start, camera_of(rec), options,
+                         HandFaceOptions(tracking=TrackOptions(min_init=3)))
     seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
     skin_mask = np.asarray(
         hog_jax.segment(

@@ -77,11 +77,13 @@ def run(variant):
             z["hl"],
             z["hr"],
             remove,
-            half,
-            sigma,
-            max_offset=20,
-            threshold=variant.get("threshold", 0.01),
-            min_hand_motion=variant.get("motion", 2.0),
+            hog_jax.video.ObjectOptions(
+                half,
+                sigma,
+                max_offset=20,
+                threshold=variant.get("threshold", 0.01),
+                min_hand_motion=variant.get("motion", 2.0),
+            ),
         )
         masks, found = np.asarray(seg.masks) & tracked[:, None, None], np.asarray(seg.found) & tracked
         truth = truth_windows(rec.left_labels, z["hl"], half)

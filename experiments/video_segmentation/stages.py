@@ -20,7 +20,7 @@ from experiments.video_segmentation import plots
 from experiments.video_segmentation.config import PRESETS, Config
 from experiments.video_segmentation.evaluate import METHODS, SKIN_ONLY, TRACKED, evaluate_clip
 from experiments.video_segmentation.report import report
-from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_stereo
+from hog_jax.video import HandFaceOptions, TrackOptions, VideoOptions, fit_skin, fit_video_models, segment_stereo
 from lfd_common import enable_compilation_cache
 
 
@@ -101,7 +101,8 @@ def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, Sta
             break
         left, right, T = pad(rec, cfg.pad_frames)
         models, _ = fit_video_models(jax.random.key(cfg.seed + n), rgb_skin, left, start, options)
-        seg = segment_stereo(models, left, right, start, camera_of(rec), options, min_init=3)
+        seg = segment_stereo(models, left, right, start, camera_of(rec), options,
+                             HandFaceOptions(tracking=TrackOptions(min_init=3)))
         seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
         skin_mask = np.asarray(hog_jax.segment(chroma_skin, rec.left).skin)
         counts = evaluate_clip(rec, skin_mask, seg, start, camera_of(rec))

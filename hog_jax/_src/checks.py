@@ -24,9 +24,18 @@ def check_key(key, name: str = "key"):
 
 
 def feature_limit(dim: int) -> float:
-    """The largest |x| accepted for D-dimensional features: 2^60 / sqrt(D). Then every squared
-    distance (at most 4 D max|x|^2 = 2^122, also in the expanded form |q|^2 - 2 q.x + |x|^2) and every
-    eq. 3 weight exponent stays finite in float32 (max 3.4e38 ~ 2^128)."""
+    """The largest |x| accepted for D-dimensional features: 2^60 / sqrt(D).
+
+    Then every squared distance (at most 4 D max|x|^2 = 2^122, also in the expanded form
+    |q|^2 - 2 q.x + |x|^2) and every GRASP eq. 3 weight exponent stays finite in float32 (max 3.4e38
+    ~ 2^128).
+
+    Args:
+        dim: the feature dimension D.
+
+    Returns:
+        The limit, as a float.
+    """
     return 2.0**60 / math.sqrt(max(int(dim), 1))
 
 

@@ -1,12 +1,14 @@
-"""Exact k-nearest-neighbour search, and the result type every neighbour search returns.
+"""Exact k-nearest-neighbour search on one device, and the result type every neighbour search returns.
 
 Shapes: N database points, Q queries, D feature dimension, k neighbours.
 
-`exact_search` is the exact drop-in for `lsh.query` (same `LSHResult`): the LSH autotuner measures
-recall against it and `knn.predict` uses it when no index is given. The database is scanned in blocks
-(a running top-k merged block by block), so memory stays O(query chunk x block) for millions of points.
+`exact_search_checked` is the one-device kernel behind `hog_jax.exact_search` (the exact drop-in for
+`hog_jax.query`, same `LSHResult`): the LSH autotuner measures recall against it and `knn.predict`
+uses it when no index is given. The database is scanned in blocks (a running top-k merged block by
+block), so memory stays O(query chunk x block) for millions of points; `exact_blocks` is the scan,
+which the sharded search runs on every shard.
 
-Range: data and queries must satisfy |x| <= 2^60 / sqrt(D) (`_checks.feature_limit`), so that the
+Range: data and queries must satisfy |x| <= 2^60 / sqrt(D) (`checks.feature_limit`), so that the
 expanded squared distances |q|^2 - 2 q.x + |x|^2 cannot overflow float32; larger values are a
 `ValueError` naming the argument (scale the features), never wrong neighbours.
 """
@@ -21,18 +23,23 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from hog_jax._src.checks import check_feature_range
-from lfd_common import as_array, check_int
-from lfd_common import check_mesh
+from lfd_common import as_array
 
-__all__ = ["LSHResult", "exact_search", "exact_search_checked"]
+__all__ = ["LSHResult", "check_queries", "exact_blocks", "exact_search_checked"]
 
 Q_CHUNK, N_BLOCK = 64, 16384
 
 
 class LSHResult(NamedTuple):
-    """The k neighbours of each query, from `lsh.query` or `exact_search`: indices (Q, k) int32 (-1 when
-    not found), distances (Q, k) float32, ascending (inf when not found), n_scanned (Q,) int32 distinct
-    candidates re-ranked (N for exact search). A single (D,) query gives (k,), (k,) and ()."""
+    """The k neighbours of each query, from `query` or `exact_search`.
+
+    A single (D,) query gives (k,), (k,) and ().
+
+    Attributes:
+        indices: (Q, k) int32 neighbour ids, -1 where not found.
+        distances: (Q, k) float32 Euclidean distances, ascending, inf where not found.
+        n_scanned: (Q,) int32 distinct candidates re-ranked (N for exact search).
+    """
 
     indices: Int[Array, "Q k"]
     distances: Float[Array, "Q k"]
@@ -87,33 +94,6 @@ def check_queries(queries, dim: int) -> tuple[np.ndarray, bool]:
         raise ValueError(f"queries: expected dimension D = {dim} (the database's), got {q.shape[1]}")
     check_feature_range(q, "queries")
     return q, single
-
-
-def exact_search(data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"],
-                 k: int = 10, *, mesh=None) -> LSHResult:
-    """Exact Euclidean kNN of each query (Q, D) (or one (D,) query) in `data` (N, D): an `LSHResult`
-    with n_scanned = N. Blocked over the database (a running top-k merged per block of points).
-
-    Every query finds k neighbours (k <= N). ValueError naming the argument for empty or non-finite
-    input, a query of another dimension, k outside [1, N], or |values| > 2^60 / sqrt(D).
-
-    mesh: a `jax.sharding.Mesh` (or None: one device). The database rows are split over its devices,
-    the queries broadcast, each device's k best merged (`lsh_sharded.exact_search_sharded`); the result
-    equals the one-device result. With several processes each passes its own rows of the database
-    (the same queries everywhere) and gets the whole result, ids counting the processes' rows in order.
-    """
-    mesh = check_mesh(mesh)
-    data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
-    q, single = check_queries(queries, data.shape[1])
-    N = data.shape[0]
-    check_int(k, "k", min_value=1, max_value=N)
-    if mesh is not None:
-        from hog_jax._src.lsh_sharded import exact_search_sharded
-
-        res = exact_search_sharded(data, q, k, mesh)
-        return LSHResult(*(a[0] for a in res)) if single else res
-    res = exact_search_checked(jnp.asarray(data), q, k)
-    return LSHResult(*(a[0] for a in res)) if single else res
 
 
 def exact_search_checked(data: Float[Array, "N D"], queries: Float[ArrayLike, "Q D"], k: int) -> LSHResult:

@@ -51,6 +51,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh
 from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from lfd_common import as_array, check_choice, check_int
@@ -60,7 +61,25 @@ __all__ = ["HOGConfig", "hog", "hog_dim", "gradients", "orientation"]
 
 
 class HOGConfig(NamedTuple):
-    """HOG options (hashable: used as a static jit argument). See the module docstring."""
+    """HOG options (hashable: a static jit argument; GRASP eq. 1, §IV; LfD 2009).
+
+    Attributes:
+        n_bins: orientation bins C (GRASP: 4).
+        n_levels: pyramid levels L, 1..12 (GRASP: 3), or the side of the grid.
+        layout: "pyramid" (GRASP: levels l = 1..L with 2^(L-l) x 2^(L-l) cells, D = C sum_l 4^(L-l))
+            or "grid" (LfD 2009: one L x L grid, D = C L^2). Features are ordered levels finest
+            first, cells row-major, then bins.
+        orientation: "grasp" (GRASP eq. 1: Phi = arctan(gy / gx) mod pi in [0, pi), bin c covering
+            [c pi / C, (c + 1) pi / C), cyclic) or "abs" (LfD 2009: arctan(|gy| / |gx|) in [0, pi/2],
+            not cyclic). A pixel with a zero gradient never votes.
+        weighting: "magnitude" (the gradient magnitude hypot(gx, gy)) or "count" (one vote per pixel
+            with a non-zero gradient).
+        binning: "hard" or "soft" (linear interpolation between the two nearest bin centres, cyclic
+            for "grasp").
+        normalize: "global" (each histogram divided by the image's total vote, so every level sums
+            to 1: invariant to contrast), "cell" (each cell histogram by its own total, L1; an empty
+            cell stays 0) or "none" (raw sums).
+    """
 
     n_bins: int = 4
     n_levels: int = 3
@@ -92,7 +111,17 @@ def _cells_per_side(config: HOGConfig) -> list[int]:
 
 
 def hog_dim(config: HOGConfig = HOGConfig()) -> int:
-    """Feature length D = C * (total number of cells)."""
+    """The HOG feature length D = C x (total number of cells).
+
+    Args:
+        config: the HOG options (`HOGConfig`).
+
+    Returns:
+        D.
+
+    Raises:
+        ValueError: naming the field for an invalid config.
+    """
     _check_config(config)
     return config.n_bins * sum(n * n for n in _cells_per_side(config))
 
@@ -311,26 +340,37 @@ def _check_images(images):
 
 
 def hog(images: Real[ArrayLike, "B H W"] | Real[ArrayLike, "H W"], config: HOGConfig = HOGConfig(),
-        mask: Bool[ArrayLike, "B H W"] | Bool[ArrayLike, "H W"] | None = None, *, mesh=None
+        mask: Bool[ArrayLike, "B H W"] | Bool[ArrayLike, "H W"] | None = None, *, mesh: Mesh | None = None
         ) -> Float[Array, "B D"] | Float[Array, " D"]:
-    """HOG features of a batch of grayscale images.
+    """HOG features of a batch of grayscale images (GRASP eq. 1, §IV; LfD 2009).
 
-    images: (B, H, W) real (numpy or jax), or one (H, W) image (then the result is (D,)). Finite; no
-        image may be all zero. H and W must be at least the number of cells per side of the finest level.
-    mask: optional bool array of the images' shape; False pixels do not vote. Each image needs a True pixel.
-    config: `HOGConfig` (defaults: GRASP's B = 4 bins, L = 3 levels, eq. 1 orientation, magnitude
-        weighting, hard binning, global normalisation).
-    Returns (B, D) float32 features, D = `hog_dim(config)`.
+    Gradients are central differences (gx down the rows, gy along the columns, zero on the borders);
+    each pixel votes into the orientation bin of its cell at every level; the histograms are
+    normalised as `config.normalize` says. Any finite image is accepted: one whose largest |I| lies
+    outside [2^-40, 2^60] (where gx^2 + gy^2 would leave float32) is first multiplied by an exact
+    power of two, which leaves normalised features unchanged. The computation is one jitted function
+    of the batch (compiled once per batch shape and config); a numpy batch is streamed to the device
+    in chunks of about 4 Mpixel, a jax array used in place.
 
-    The computation is one jitted function of the batch (compiled once per batch shape and config).
-    A numpy batch is streamed to the device in chunks of about 4 Mpixel (asynchronous dispatch
-    overlaps the copy of one chunk with the computation of the previous one); a jax array is used
-    in place.
+    Args:
+        images: (B, H, W) real images (numpy or jax), or one (H, W) image. Finite; no image may be all
+            zero; H and W at least the cells per side of the finest level.
+        config: the HOG options (`HOGConfig`; defaults: GRASP's 4 bins, 3 levels, eq. 1 orientation,
+            magnitude weighting, hard binning, global normalisation).
+        mask: optional bool array of the images' shape; False pixels do not vote (the gradient is still
+            computed from the image as given). Each image needs a True pixel.
+        mesh: a `jax.sharding.Mesh`, or None for one device. The images are split over its devices
+            (padded to the mesh, the padding cut off); the features equal the one-device features. With
+            several processes each passes its own images and gets its own rows.
 
-    mesh: a `jax.sharding.Mesh` (or None: one device). The images are split over its devices
-    (`lfd_common.map_batch`: padded to the mesh, the padding cut off), each device runs the same
-    function on its images; the features equal the one-device features. With several processes
-    each passes its own images and gets its own rows.
+    Returns:
+        (B, D) float32 features, or (D,) for one image; D = `hog_dim(config)`.
+
+    Raises:
+        ValueError: naming the argument for an invalid config, images that are not 2-D or 3-D, empty,
+            non-numeric, NaN or infinite, all zero or smaller than the finest cells, a mask of another
+            shape or with an image without a True pixel, raw (normalize="none") sums that overflow
+            float32 (`images`), or a `mesh` that is not a `jax.sharding.Mesh`.
     """
     _check_config(config)
     mesh = check_mesh(mesh)

@@ -17,7 +17,7 @@ Shapes: N database points, M classes, Q queries, D feature dimension, k neighbou
 * Euler angles o = (phi, theta, psi) in radians, intrinsic Z-Y'-X'' (yaw, pitch, roll):
   R = Rz(phi) Ry(theta) Rx(psi) (scipy's `Rotation.from_euler("ZYX", ...)`); the conversions are
   `lfd_common.rotations`'.
-* Neighbours come from `lsh.query` (an index) or `exact.exact_search` (none).
+* Neighbours come from `hog_jax.query` (an index) or exact search (none).
 
 Edge cases: when eq. 5 gives sigma = 0 (every class's points coincide, e.g. identical or all-zero
 features) or a sigma below the float32 resolution of the data, `fit` floors it at
@@ -40,7 +40,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from hog_jax._src.checks import check_feature_range
 from hog_jax._src.exact import check_queries, exact_search_checked
-from hog_jax._src.lsh import LSHIndex, query
+from hog_jax._src.lsh import LSHIndex
+from hog_jax._src.search import query
 from lfd_common import as_array, check_int, check_real, euler_zyx_to_quat, quat_to_euler_zyx
 
 __all__ = [
@@ -66,9 +67,26 @@ def intra_class_sigma(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"
                       n_pairs: int = 1_000_000, seed: int = 0) -> float:
     """sigma of GRASP eq. 5: the mean distance between two distinct points of the same class.
 
-    data: (N, D); labels: (N,) ints. Classes with <= max_exact points are exact (all pairs, float64
-    accumulation per block); larger classes use `n_pairs` uniform random pairs a != b (unbiased).
-    Classes with a single point have no pair and do not count. Needs at least one class with 2 points.
+    The text defines sigma as "the mean intra-class, inter-point distance" in feature space: the mean
+    of ||x_a - x_b|| over all ordered pairs a != b of the same class, pooled over classes (sum of
+    distances / sum_i N_i (N_i - 1)). The printed formula's factor 1 / sqrt(2 M N) cannot be a mean
+    (it grows with N); the text is followed. Classes with a single point have no pair and do not
+    count.
+
+    Args:
+        data: (N, D) features.
+        labels: (N,) integer class labels.
+        max_exact: classes with at most this many points use all pairs (float64 accumulation per
+            block), >= 2.
+        n_pairs: larger classes use this many uniform random pairs a != b (an unbiased estimate), >= 1.
+        seed: the seed of the pair sample.
+
+    Returns:
+        sigma, as a float.
+
+    Raises:
+        ValueError: naming the argument for empty or non-finite data, labels of another length,
+            max_exact < 2, n_pairs < 1, or no class with two points (`labels`).
     """
     x = as_array(data, "data", ndim=2, dtype=np.float64)
     y = as_array(labels, "labels", shape=(x.shape[0],), dtype=np.int64)
@@ -98,21 +116,46 @@ def intra_class_sigma(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"
 
 # ------------------------------------------------------------------------------------ rotations
 def euler_to_quat(euler: Float[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 4"]:
-    """(..., 3) Euler angles (phi, theta, psi), R = Rz(phi) Ry(theta) Rx(psi) -> (..., 4) (w, x, y, z),
-    a jax array (`lfd_common.euler_zyx_to_quat`)."""
+    """Euler angles to unit quaternions (the orientation of GRASP eq. 4).
+
+    Args:
+        euler: (..., 3) angles (phi, theta, psi) in radians, intrinsic Z-Y'-X'' (yaw, pitch, roll):
+            R = Rz(phi) Ry(theta) Rx(psi) (scipy's `Rotation.from_euler("ZYX", ...)`).
+
+    Returns:
+        (..., 4) quaternions (w, x, y, z), a jax array (`lfd_common.euler_zyx_to_quat`).
+    """
     return euler_zyx_to_quat(jnp.asarray(euler))
 
 
 def quat_to_euler(q: Float[ArrayLike, "*batch 4"]) -> Float[Array, "*batch 3"]:
-    """(..., 4) quaternions (w, x, y, z) -> (..., 3) Z-Y'-X'' Euler angles, theta in [-pi/2, pi/2], a jax
-    array (`lfd_common.quat_to_euler_zyx`)."""
+    """Quaternions to Z-Y'-X'' Euler angles (the inverse of `euler_to_quat`).
+
+    Args:
+        q: (..., 4) quaternions (w, x, y, z).
+
+    Returns:
+        (..., 3) angles (phi, theta, psi), theta in [-pi/2, pi/2], a jax array
+        (`lfd_common.quat_to_euler_zyx`).
+    """
     return quat_to_euler_zyx(jnp.asarray(q))
 
 
 def mean_rotation(quats: Float[ArrayLike, "*batch n 4"], weights: Float[ArrayLike, "*batch n"]
                   ) -> Float[Array, "*batch 4"]:
-    """Weighted mean rotation (..., n, 4), (..., n) -> (..., 4): top eigenvector of sum w q q^T,
-    sign chosen with w >= 0. Weights must not all be zero."""
+    """The weighted mean rotation of quaternions (GRASP eq. 4 on rotations, Markley et al. 2007).
+
+    Angles are cyclic, so instead of averaging Euler angles the rotations are averaged: the
+    eigenvector of sum_j w_j q_j q_j^T with the largest eigenvalue (sign-invariant: q and -q are the
+    same rotation), its sign chosen with w >= 0.
+
+    Args:
+        quats: (..., n, 4) unit quaternions (w, x, y, z).
+        weights: (..., n) non-negative weights, not all zero.
+
+    Returns:
+        (..., 4) the mean unit quaternion.
+    """
     m = jnp.einsum("...n,...ni,...nj->...ij", weights, quats, quats)
     _, vecs = jnp.linalg.eigh(m)
     q = vecs[..., :, -1]
@@ -121,8 +164,15 @@ def mean_rotation(quats: Float[ArrayLike, "*batch n 4"], weights: Float[ArrayLik
 
 # ----------------------------------------------------------------------------------- classifier
 class KNNModel(NamedTuple):
-    """A kNN classifier/regressor: data (N, D) float32, labels (N,) int32 in [0, M), quats (N, 4)
-    orientations as unit quaternions (zeros when none were given), sigma () eq. 5, n_classes M."""
+    """A kNN classifier and orientation regressor (GRASP eqs. 3-5).
+
+    Attributes:
+        data: (N, D) float32 database features.
+        labels: (N,) int32 classes in [0, M).
+        quats: (N, 4) orientations as unit quaternions (zeros when none were given).
+        sigma: () the eq. 5 scale.
+        n_classes: M.
+    """
 
     data: Float[Array, "N D"]
     labels: Int[Array, " N"]
@@ -132,10 +182,18 @@ class KNNModel(NamedTuple):
 
 
 class Prediction(NamedTuple):
-    """label (Q,) int32 (-1 where no neighbour was found); scores (Q, M) eq. 3 class scores (0 where
-    none was found); quat (Q, 4) and euler (Q, 3) the eq. 4 orientation (NaN where the model has none
-    or no neighbour was found); indices / distances (Q, k) the neighbours used (-1 / inf where missing);
-    found (Q,) bool: at least one neighbour was found (always True for exact search)."""
+    """Class and orientation of each query (GRASP eqs. 3-4).
+
+    Attributes:
+        label: (Q,) int32 class, -1 where no neighbour was found.
+        scores: (Q, M) eq. 3 class scores, 0 where none was found.
+        quat: (Q, 4) the eq. 4 orientation as a quaternion, NaN where the model has none or no
+            neighbour was found.
+        euler: (Q, 3) the same as Z-Y'-X'' Euler angles.
+        indices: (Q, k) the neighbours used, -1 where missing.
+        distances: (Q, k) their distances, inf where missing.
+        found: (Q,) bool, at least one neighbour was found (always True for exact search).
+    """
 
     label: Int[Array, " Q"]
     scores: Float[Array, "Q M"]
@@ -152,11 +210,27 @@ _SIGMA_MIN, _SIGMA_MAX = 2.0**-60, 2.0**62
 def fit(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"],
         orientations: Float[ArrayLike, "N 3"] | None = None, sigma: float | None = None,
         n_classes: int | None = None, max_exact: int = 10_000, seed: int = 0) -> KNNModel:
-    """A kNN model. data (N, D); labels (N,) ints in [0, M); orientations (N, 3) Euler angles (radians,
-    Z-Y'-X'') or None; sigma: eq. 5 from the data when None, floored (with a `UserWarning`) at
-    eps_32 * max(1, max|x|) when eq. 5 gives less (0 when every class's points coincide); an explicit
-    sigma must lie in [2^-60, 2^62]. ValueError naming the argument otherwise, and for
-    |data| > 2^60 / sqrt(D)."""
+    """A kNN model of labelled features (GRASP eqs. 3-5).
+
+    Args:
+        data: (N, D) features, |x| <= 2^60 / sqrt(D).
+        labels: (N,) integer classes in [0, M).
+        orientations: (N, 3) Euler angles (radians, Z-Y'-X''), or None.
+        sigma: the eq. 5 scale, in [2^-60, 2^62]; None: eq. 5 from the data (`intra_class_sigma`),
+            floored with a `UserWarning` at eps_32 * max(1, max|x|) when eq. 5 gives less (0 when every
+            class's points coincide; eq. 3 is then in effect the nearest-neighbour vote).
+        n_classes: M, at least max(labels) + 1 (default max(labels) + 1).
+        max_exact: passed to `intra_class_sigma`.
+        seed: passed to `intra_class_sigma`.
+
+    Returns:
+        A `KNNModel`.
+
+    Raises:
+        ValueError: naming the argument for empty or non-finite data, |data| > 2^60 / sqrt(D),
+            negative labels or labels of another length, too few classes (`n_classes`), orientations
+            of another shape, or sigma out of range.
+    """
     x = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     N = x.shape[0]
     y = as_array(labels, "labels", ndim=1, dtype=np.int64, min_value=0)
@@ -186,13 +260,25 @@ def fit(data: Float[ArrayLike, "N D"], labels: Int[ArrayLike, " N"],
 def vote(labels: Int[ArrayLike, "Q k"], distances: Float[ArrayLike, "Q k"], quats: Float[ArrayLike, "Q k 4"],
          sigma: Float[ArrayLike, ""], n_classes: int
          ) -> tuple[Int[Array, " Q"], Float[Array, "Q M"], Float[Array, "Q 4"]]:
-    """Eqs. 3-4 for neighbour labels (Q, k) (-1 = none), distances (Q, k), quaternions (Q, k, 4).
+    """The distance-weighted class vote and orientation of GRASP eqs. 3-4 (jitted).
 
-    Returns (label (Q,), scores (Q, M), quat (Q, 4)). Weights are exp(-d^2 / (2 sigma^2)); the
-    orientation uses only neighbours of the winning class. A query whose neighbours all underflow
-    to weight 0 falls back to the nearest neighbour (weights computed relative to the nearest; when
-    even those exponents overflow, the nearest neighbours (ties included) vote with weight 1).
-    A query without any neighbour gets scores 0 and label 0 (`predict` marks it not found)."""
+    Weights are exp(-d^2 / (2 sigma^2)) (eq. 3: y_hat = argmax_i sum_{neighbours j of class i} w_j);
+    the orientation (eq. 4) is the weighted mean rotation (`mean_rotation`) of the neighbours of the
+    winning class only. A query whose neighbours all underflow to weight 0 falls back to the nearest
+    neighbour (weights relative to the nearest; when even those exponents overflow, the nearest
+    neighbours, ties included, vote with weight 1).
+
+    Args:
+        labels: (Q, k) neighbour classes, -1 for none.
+        distances: (Q, k) neighbour distances.
+        quats: (Q, k, 4) neighbour orientations.
+        sigma: () the eq. 5 scale.
+        n_classes: M (static).
+
+    Returns:
+        label (Q,), scores (Q, M), quat (Q, 4). A query without any neighbour gets scores 0 and
+        label 0 (`predict` marks it not found).
+    """
     valid = labels >= 0
     d2 = jnp.where(valid, distances, jnp.inf) ** 2
     logw = -d2 / (2.0 * sigma**2)
@@ -213,14 +299,30 @@ def vote(labels: Int[ArrayLike, "Q k"], distances: Float[ArrayLike, "Q k"], quat
 def predict(model: KNNModel, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"], k: int = 10,
             index: LSHIndex | None = None, n_per_table: int = 64, n_tables: int | None = None,
             max_rerank: int | None = None, n_probes: int = 0) -> Prediction:
-    """Class and orientation of each query (Q, D): neighbours from `index` (LSH, built on
-    model.data) or exact search when None, then eqs. 3-4 (n_per_table, n_tables, max_rerank and
-    n_probes go to `hog_jax.query`).
+    """Class and orientation of each query by the kNN vote (GRASP eqs. 3-4).
 
-    A query for which the index finds no neighbour at all is marked, not guessed: found False,
-    label -1, scores 0, quat / euler NaN (no fallback to exact search; rerun those rows with
-    index=None, or tune the index, if an answer is needed). ValueError naming the argument for
-    invalid queries, k, or n_tables * n_per_table < k (`n_per_table`)."""
+    Neighbours come from `index` (LSH, built on the model's data) or exact search when None. A query
+    for which the index finds no neighbour at all is marked, not guessed: found False, label -1,
+    scores 0, quat / euler NaN (no fallback to exact search; rerun those rows with index=None, or tune
+    the index, if an answer is needed).
+
+    Args:
+        model: the `KNNModel`.
+        queries: (Q, D) features, or one (D,) query.
+        k: neighbours per query, 1 <= k <= N.
+        index: an `LSHIndex` built on `model.data`, or None for exact search.
+        n_per_table: passed to `query`.
+        n_tables: passed to `query`.
+        max_rerank: passed to `query`.
+        n_probes: passed to `query`.
+
+    Returns:
+        A `Prediction`.
+
+    Raises:
+        ValueError: naming the argument for invalid queries or k, an index built on other data, or
+            n_tables * n_per_table < k (`n_per_table`).
+    """
     q, _ = check_queries(queries, model.data.shape[1])
     check_int(k, "k", min_value=1, max_value=model.data.shape[0])
     if index is not None:

@@ -1,20 +1,23 @@
-"""Hyperplane locality-sensitive hashing with exact re-ranking (GRASP §V, steps 1-4 and the query).
+"""Hyperplane locality-sensitive hashing with exact re-ranking on one device (GRASP §V, steps 1-4
+and the query), and its autotuner.
 
 Shapes: N database points, Q queries, D feature dimension, T tables, K hyperplanes (bits) per table,
 C candidates kept per table and query, k neighbours returned.
 
-Build (`build_index`): table t holds K random hyperplanes through the data mean (normal directions
-drawn i.i.d. N(0, I)); point x gets the K-bit code f_t(x) = sum_j [a_tj . (x - mean) > 0] 2^j and the
-bucket h(f) in a table of size H = 2^table_bits: h(f) = f when K <= table_bits, else the
-multiplicative (Fibonacci) hash (f * 2654435761 mod 2^32) >> (32 - table_bits). Each table is stored
-as its bucket ids sorted, with the point ids in that order (ties in random order), so a bucket is a
-contiguous run found with `searchsorted`; no Python dict.
+Build (`hog_jax.build_index`; on one device `build_index_one_device`): table t holds K random
+hyperplanes through the data mean (normal directions drawn i.i.d. N(0, I)); point x gets the K-bit
+code f_t(x) = sum_j [a_tj . (x - mean) > 0] 2^j and the bucket h(f) in a table of size
+H = 2^table_bits: h(f) = f when K <= table_bits, else the multiplicative (Fibonacci) hash
+(f * 2654435761 mod 2^32) >> (32 - table_bits). Each table is stored as its bucket ids sorted, with
+the point ids in that order (ties in random order), so a bucket is a contiguous run found with
+`searchsorted`; no Python dict.
 
-Query (`query`): per table the query's bucket run is read into a fixed buffer of C slots (a bucket
-with more than C points contributes a random C of them); the union over the T tables is de-duplicated
-(a scatter into an N-row table; for very large databases by sorting), every candidate is re-ranked by
-its exact Euclidean distance and the k nearest are returned with their distances (-1 / inf where fewer
-than k were found), and the number of distinct candidates scanned. Queries are processed in batches by one jitted function.
+Query (`hog_jax.query`; on one device `query_one_device`): per table the query's bucket run is read
+into a fixed buffer of C slots (a bucket with more than C points contributes a random C of them);
+the union over the T tables is de-duplicated (a scatter into an N-row table; for very large
+databases by sorting), every candidate is re-ranked by its exact Euclidean distance and the k
+nearest are returned with their distances (-1 / inf where fewer than k were found), and the number
+of distinct candidates scanned. Queries are processed in batches by one jitted function.
 
 Parameters (`tune`): the paper learns K and T from the data for its epsilon; here the autotuner
 measures recall@k against exact search on held-out queries for a grid of K and T (the first t tables
@@ -23,6 +26,8 @@ scanned.
 """
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
 from functools import partial
 from typing import NamedTuple
 
@@ -32,17 +37,26 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int, Key
 
 from hog_jax._src.checks import check_feature_range, check_key
-from hog_jax._src.exact import LSHResult, check_queries, exact_search
+from hog_jax._src.exact import LSHResult, check_queries, exact_search_checked
 from lfd_common import as_array, check_int, check_real
-from lfd_common import check_mesh
 
-__all__ = ["LSHIndex", "LSHResult", "TuneResult", "build_index", "query", "recall_at_k", "tune"]
+__all__ = ["LSHIndex", "TuneOptions", "TuneResult", "bucket_ids", "build_index_one_device", "check_slots", "hash_codes",
+           "query_chunks", "query_one_device", "recall_at_k", "tune"]
 
 _GOLDEN = np.uint32(2654435761)
 
 
 class LSHIndex(NamedTuple):
-    """An immutable LSH index (a pytree of arrays)."""
+    """An immutable hyperplane LSH index on one device (a pytree of arrays; GRASP §V).
+
+    Attributes:
+        planes: (T, K, D) hyperplane normals.
+        center: (D,) the point the hyperplanes pass through (the data mean).
+        data: (N, D) the database, float32.
+        keys: (T, N) per table, the bucket ids sorted.
+        order: (T, N) per table, the point ids in bucket order.
+        table_bits: () log2 of the table size H.
+    """
 
     planes: Float[Array, "T K D"]  # hyperplane normals
     center: Float[Array, " D"]     # the point the hyperplanes pass through (the data mean)
@@ -107,28 +121,8 @@ def _build(key, data, planes, table_bits, chunk: int):
     return LSHIndex(planes, center, data, keys, order.astype(jnp.int32), table_bits)
 
 
-def build_index(key: Key[Array, ""], data: Float[ArrayLike, "N D"], n_bits: int, n_tables: int,
-                table_bits: int = 20, *, mesh=None) -> LSHIndex:
-    """Build an LSH index of `data` (N, D) with `n_tables` tables of `n_bits` hyperplanes each.
-
-    key: a `jax.random` key. table_bits: log2 of the hash-table size H (1..31, default 20).
-    ValueError naming the argument for a key that is not a `jax.random` key, empty or non-finite data,
-    |data| > 2^60 / sqrt(D) (squared distances would overflow float32) or parameters out of range.
-    mesh: a `jax.sharding.Mesh` (or None: one device): the rows are split over its devices, each
-    with its own tables, and a `lsh_sharded.ShardedLSHIndex` is returned, which `query` accepts
-    (queries broadcast, the shards' top k merged; see `hog_jax.lsh_sharded`). With several processes
-    each passes its own rows (ids count the processes' rows in order).
-    """
-    mesh = check_mesh(mesh)
-    check_key(key, "key")
-    data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
-    check_int(n_bits, "n_bits", min_value=1, max_value=32)
-    check_int(n_tables, "n_tables", min_value=1)
-    check_int(table_bits, "table_bits", min_value=1, max_value=31)
-    if mesh is not None:
-        from hog_jax._src.lsh_sharded import build_sharded_index
-
-        return build_sharded_index(key, data, n_bits, n_tables, table_bits, mesh)
+def build_index_one_device(key, data: np.ndarray, n_bits: int, n_tables: int, table_bits: int) -> LSHIndex:
+    """`hog_jax.build_index` on one device, for checked (N, D) float32 `data` and checked parameters."""
     N, D = data.shape
     k_planes, k_perm = jax.random.split(key)
     planes = jax.random.normal(k_planes, (n_tables, n_bits, D), jnp.float32)
@@ -207,28 +201,9 @@ def query_chunks(index: LSHIndex, queries, k: int, n_per_table: int, n_tables_us
     return LSHResult(idx.reshape(-1, k)[:Q], dist.reshape(-1, k)[:Q], n.reshape(-1)[:Q])
 
 
-def query(index: LSHIndex, queries: Float[ArrayLike, "Q D"] | Float[ArrayLike, " D"], k: int = 10,
-          n_per_table: int = 64, n_tables: int | None = None, max_rerank: int | None = None,
-          n_probes: int = 0) -> LSHResult:
-    """The k approximate nearest neighbours of each query (Q, D) (or one (D,) query).
-
-    n_per_table: candidate slots per bucket read and query (C; a larger bucket contributes a random C of
-    its points). n_tables: use only the first tables (default all). n_probes: per table, also read the
-    P buckets whose codes differ from the query's in one bit, the bits of the hyperplanes nearest the
-    query first (multi-probe LSH, Lv et al. 2007; 0 <= P <= K; 0: the query's bucket only).
-    max_rerank: re-rank at most this many distinct candidates (R; default T (1 + P) C, i.e. all; when
-    more are found, n_scanned reports R and which R are kept depends on the database size: up to
-    64 T (1 + P) C rows the first R in table order, beyond that the R smallest ids of at most 4 R bucket
-    slots collected in table order; see `_candidates`).
-    Returns an `LSHResult`; a query whose buckets hold fewer than k points gets -1 / inf in the
-    missing places (a query with none at all: every index -1). ValueError naming the argument when
-    n_tables * n_per_table < k (the candidate slots cannot hold k neighbours: `n_per_table`).
-    A sharded index (`build_index(..., mesh=...)`) is queried by `lsh_sharded.query_sharded`.
-    """
-    if not isinstance(index, LSHIndex):
-        from hog_jax._src.lsh_sharded import query_sharded
-
-        return query_sharded(index, queries, k, n_per_table, n_tables, max_rerank, n_probes)
+def query_one_device(index: LSHIndex, queries, k: int = 10, n_per_table: int = 64, n_tables: int | None = None,
+                     max_rerank: int | None = None, n_probes: int = 0) -> LSHResult:
+    """`hog_jax.query` on a one-device `LSHIndex`: the same arguments, checks and result."""
     q, single = check_queries(queries, index.data.shape[1])
     check_int(k, "k", min_value=1, max_value=index.data.shape[0])
     check_int(n_per_table, "n_per_table", min_value=1)
@@ -264,7 +239,18 @@ def _check_grid(grid, name: str, max_value: int | None) -> tuple[int, ...]:
 
 
 def recall_at_k(found: Int[ArrayLike, "Q k"], truth: Int[ArrayLike, "Q k"]) -> float:
-    """Mean over queries of |found_q ∩ truth_q| / k for (Q, k) index arrays (-1 = nothing found)."""
+    """Recall@k of found neighbours against the true ones.
+
+    Args:
+        found: (Q, k) neighbour ids found by a search, -1 where nothing was found.
+        truth: (Q, k) the true neighbour ids (from `exact_search`).
+
+    Returns:
+        The mean over queries of |found_q ∩ truth_q| / k.
+
+    Raises:
+        ValueError: `found` has another shape than `truth`.
+    """
     found, truth = np.asarray(found), np.asarray(truth)
     if found.shape != truth.shape:
         raise ValueError(f"found: expected shape {truth.shape} (the truth's), got {found.shape}")
@@ -272,11 +258,55 @@ def recall_at_k(found: Int[ArrayLike, "Q k"], truth: Int[ArrayLike, "Q k"]) -> f
     return float(hits.any(axis=2).sum(axis=1).mean() / truth.shape[1])
 
 
+@dataclasses.dataclass(frozen=True)
+class TuneOptions:
+    """The search space and the goal of `tune` (GRASP §V: K and T learnt from the data).
+
+    Validated on construction; the grids are stored as tuples of ints.
+
+    Attributes:
+        target_recall: the recall@k to reach on the held-out queries, in [0, 1].
+        n_bits_grid: the hyperplanes per table (K) to try, each in 1..32.
+        n_tables_grid: the numbers of tables (T) to try, each >= 1.
+        n_per_table: candidate slots per bucket read and query (C, >= 1).
+        table_bits: log2 of the hash-table size H, 1..31.
+        n_probes: the multi-probe setting the index will be queried with (see `query`), at most
+            min(n_bits_grid).
+
+    Raises:
+        ValueError: naming the field for an empty grid, a grid entry out of range or another value
+            out of range.
+    """
+
+    target_recall: float = 0.9
+    n_bits_grid: Sequence[int] = (8, 10, 12, 14, 16, 18, 20)
+    n_tables_grid: Sequence[int] = (1, 2, 4, 8, 12, 16, 24, 32)
+    n_per_table: int = 64
+    table_bits: int = 20
+    n_probes: int = 0
+
+    def __post_init__(self):
+        check_real(self.target_recall, "target_recall", min_value=0.0, max_value=1.0)
+        check_int(self.n_per_table, "n_per_table", min_value=1)
+        check_int(self.table_bits, "table_bits", min_value=1, max_value=31)
+        object.__setattr__(self, "n_bits_grid", _check_grid(self.n_bits_grid, "n_bits_grid", 32))
+        object.__setattr__(self, "n_tables_grid", _check_grid(self.n_tables_grid, "n_tables_grid", None))
+        check_int(self.n_probes, "n_probes", min_value=0, max_value=min(self.n_bits_grid))
+
+
 class TuneResult(NamedTuple):
-    """n_bits (K), n_tables (T), n_per_table (C), max_rerank (R), recall (at k, on the held-out
-    queries, with these settings), mean_scanned (distinct candidates re-ranked per query), reached
-    (whether the target was met; if not, the highest-recall setting is returned) and table: rows
-    (K, T, recall, mean_scanned) of every (K, T) tried with R = T C."""
+    """The LSH settings `tune` chose, and what it measured.
+
+    Attributes:
+        n_bits: hyperplanes per table (K).
+        n_tables: number of tables (T).
+        n_per_table: candidate slots per bucket (C).
+        max_rerank: the re-rank buffer (R).
+        recall: recall@k on the held-out queries with these settings.
+        mean_scanned: distinct candidates re-ranked per query.
+        reached: whether the target was met; if not, the highest-recall setting is returned.
+        table: rows (K, T, recall, mean_scanned) of every (K, T) tried, with R = T C.
+    """
 
     n_bits: int
     n_tables: int
@@ -289,33 +319,43 @@ class TuneResult(NamedTuple):
 
 
 def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[ArrayLike, "Q D"], k: int = 10,
-         target_recall: float = 0.9, n_bits_grid=(8, 10, 12, 14, 16, 18, 20),
-         n_tables_grid=(1, 2, 4, 8, 12, 16, 24, 32),
-         n_per_table: int = 64, table_bits: int = 20, truth: Int[ArrayLike, "Q k"] | None = None,
-         n_probes: int = 0) -> TuneResult:
-    """Pick (K, T) reaching recall@k >= target_recall on held-out `queries` (Q, D) (not in `data`)
-    with the fewest distinct candidates scanned, then the re-rank buffer R: the smallest power of two
-    >= the 99th percentile of distinct candidates that keeps the target (else R = T C).
+         options: TuneOptions = TuneOptions(), truth: Int[ArrayLike, "Q k"] | None = None) -> TuneResult:
+    """Choose the LSH parameters (K, T, R) that reach a target recall with the fewest candidates.
 
-    For each K one index with max(T grid) tables is built and the first t tables are used for each t,
-    so the grid costs one build per K. `truth` (Q, k): exact neighbour ids if already known. n_probes:
-    the multi-probe setting the index will be queried with (see `query`; at most min(n_bits_grid)).
-    ValueError naming the argument for an empty grid, a grid entry out of range, a key that is not a
-    `jax.random` key, or min(n_tables_grid) * n_per_table < k.
+    The paper learns K and T from the data for its epsilon (GRASP §V); here recall@k is measured
+    against exact search on held-out queries for a grid of K and T, and the (K, T) that reaches
+    `options.target_recall` with the fewest distinct candidates scanned is chosen. Then the re-rank
+    buffer R: the smallest power of two >= the 99th percentile of distinct candidates that keeps the
+    target (else R = T C). For each K one index with max(T grid) tables is built and the first t
+    tables are used for each t, so the grid costs one build per K.
+
+    Args:
+        key: a `jax.random` key.
+        data: (N, D) the database.
+        queries: (Q, D) held-out queries, not in `data`.
+        k: the number of neighbours the index will be asked for.
+        options: the grids, the target recall and the query settings (`TuneOptions`).
+        truth: (Q, k) the exact neighbour ids of `queries`, if already known.
+
+    Returns:
+        A `TuneResult`.
+
+    Raises:
+        ValueError: naming the argument for a key that is not a `jax.random` key, empty or
+            non-finite data or queries, |values| > 2^60 / sqrt(D), k outside [1, N], options that
+            are not a `TuneOptions`, or min(n_tables_grid) * n_per_table < k (`n_per_table`).
     """
     check_key(key, "key")
     data = check_feature_range(as_array(data, "data", ndim=2, dtype=np.float32), "data")
     q = check_feature_range(as_array(queries, "queries", shape=(None, data.shape[1]), dtype=np.float32), "queries")
     check_int(k, "k", min_value=1, max_value=data.shape[0])
-    check_int(n_per_table, "n_per_table", min_value=1)
-    check_real(target_recall, "target_recall", min_value=0.0, max_value=1.0)
-    check_int(table_bits, "table_bits", min_value=1, max_value=31)
-    n_bits_grid = _check_grid(n_bits_grid, "n_bits_grid", 32)
-    n_tables_grid = _check_grid(n_tables_grid, "n_tables_grid", None)
+    if not isinstance(options, TuneOptions):
+        raise ValueError(f"options: expected a TuneOptions, got {type(options).__name__}")
+    n_bits_grid, n_tables_grid = options.n_bits_grid, options.n_tables_grid
+    n_per_table, table_bits, n_probes = options.n_per_table, options.table_bits, options.n_probes
     check_slots(k, min(n_tables_grid), n_per_table)
-    n_probes = check_int(n_probes, "n_probes", min_value=0, max_value=min(n_bits_grid))
     if truth is None:
-        truth = np.asarray(exact_search(data, q, k).indices)
+        truth = np.asarray(exact_search_checked(jnp.asarray(data), q, k).indices)
     else:
         truth = as_array(truth, "truth", shape=(q.shape[0], k), dtype=np.int64, min_value=-1,
                          max_value=data.shape[0] - 1)
@@ -324,22 +364,23 @@ def tune(key: Key[Array, ""], data: Float[ArrayLike, "N D"], queries: Float[Arra
     qj = jnp.asarray(q)
     rows = []
     for i, n_bits in enumerate(n_bits_grid):  # a grid search: one build per K
-        index = build_index(jax.random.fold_in(key, i), data, n_bits, t_max, table_bits)
+        index = build_index_one_device(jax.random.fold_in(key, i), data, n_bits, t_max, table_bits)
         for t in sorted(n_tables_grid):  # the first t tables, masked: one compiled query for all t
             res = query_chunks(index, qj, k, n_per_table, jnp.int32(t), t_max * n_per_table * (1 + n_probes), chunk,
-                         n_probes)
+                               n_probes)
             rows.append((int(n_bits), int(t), recall_at_k(res.indices, truth), float(np.mean(res.n_scanned))))
-    ok = [r for r in rows if r[2] >= target_recall]
+    ok = [r for r in rows if r[2] >= options.target_recall]
     best = min(ok, key=lambda r: r[3]) if ok else max(rows, key=lambda r: (r[2], -r[3]))
     K, T, recall, scanned = best
     R = T * n_per_table * (1 + n_probes)
     if ok:
-        index = build_index(jax.random.fold_in(key, list(n_bits_grid).index(K)), data, K, t_max, table_bits)
-        res = query(index, q, k, n_per_table, T, n_probes=n_probes)
+        index = build_index_one_device(jax.random.fold_in(key, list(n_bits_grid).index(K)), data, K, t_max,
+                                       table_bits)
+        res = query_one_device(index, q, k, n_per_table, T, n_probes=n_probes)
         r_try = int(2 ** np.ceil(np.log2(max(k, np.percentile(np.asarray(res.n_scanned), 99)))))
         if r_try < R:
-            res = query(index, q, k, n_per_table, T, max_rerank=r_try, n_probes=n_probes)
+            res = query_one_device(index, q, k, n_per_table, T, max_rerank=r_try, n_probes=n_probes)
             rec = recall_at_k(res.indices, truth)
-            if rec >= target_recall:
+            if rec >= options.target_recall:
                 R, recall, scanned = r_try, rec, float(np.mean(res.n_scanned))
     return TuneResult(K, T, n_per_table, R, recall, scanned, bool(ok), tuple(rows))

@@ -9,8 +9,8 @@ of `exact`; LSH: `lsh`'s query on its own tables), the shards' (Q, k) lists are 
 (`jax.lax.all_gather`) and merged by one top-k, so every device ends with the global answer.
 Row ids in results are rows of the whole (unpadded) database, processes in order.
 
-The sharded LSH index hashes with the same hyperplanes as `lsh.build_index` with the same key, through
-the mean of all rows (one jitted reduction over the split array), and padding rows go to bucket -1,
+The sharded LSH index hashes with the same hyperplanes as `hog_jax.build_index` with the same key,
+through the mean of all rows (one jitted reduction over the split array), and padding rows go to bucket -1,
 which no query reads. Each shard reads up to C slots of every bucket the query reads (its own and
 `n_probes` neighbours) in each of its tables, so the candidates are the union of the shards'
 buckets: the same set as one device's whenever no bucket holds more than C points (then the results
@@ -76,7 +76,7 @@ def _exact_shard(queries, data, mask, *, k: int, axes):
 
 
 def exact_search_sharded(data: np.ndarray, queries: np.ndarray, k: int, mesh: Mesh) -> LSHResult:
-    """`exact.exact_search` on checked (N, D) float32 `data` (this process's rows) and (Q, D) `queries`
+    """`hog_jax.exact_search` on checked (N, D) float32 `data` (this process's rows) and (Q, D) `queries`
     (the same on every process), the rows split over `mesh`: equal to the one-device result."""
     batch = shard(mesh, data)
     idx, d = sharded_call(_exact_shard, mesh, (queries,), (*batch.arrays, batch.mask),
@@ -109,7 +109,7 @@ def _build_shard(planes, center, table_bits, key_data, data, mask, *, chunk: int
 
 def build_sharded_index(key, data: np.ndarray, n_bits: int, n_tables: int, table_bits: int,
                         mesh: Mesh) -> ShardedLSHIndex:
-    """`lsh.build_index` (the same hyperplanes for the same key) on checked (N, D) float32 `data`
+    """`hog_jax.build_index` (the same hyperplanes for the same key) on checked (N, D) float32 `data`
     (this process's rows), the rows split over `mesh`; see the module docstring."""
     batch = shard(mesh, data)
     (x,), mask = batch.arrays, batch.mask
@@ -135,9 +135,9 @@ def _query_shard(planes, center, table_bits, queries, n_tables_used, data, keys,
 
 def query_sharded(index: ShardedLSHIndex, queries, k: int = 10, n_per_table: int = 64, n_tables: int | None = None,
                   max_rerank: int | None = None, n_probes: int = 0) -> LSHResult:
-    """`lsh.query` on a `ShardedLSHIndex` (the same arguments, checks and result; `lsh.query` hands a
-    sharded index here). `max_rerank` bounds each shard's re-ranked candidates; n_scanned sums the
-    shards' (equal to one device's when no bucket holds more than C points)."""
+    """`hog_jax.query` on a `ShardedLSHIndex` (the same arguments, checks and result; `hog_jax.query`
+    hands a sharded index here). `max_rerank` bounds each shard's re-ranked candidates; n_scanned sums
+    the shards' (equal to one device's when no bucket holds more than C points)."""
     ix, mesh = index.index, index.mesh
     q, single = check_queries(queries, ix.data.shape[1])
     check_int(k, "k", min_value=1, max_value=index.n_rows)

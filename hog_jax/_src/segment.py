@@ -1,4 +1,4 @@
-"""Hand segmentation by skin colour (GRASP §III-A; skin GMM as the level-set report §3.3).
+"""Hand segmentation by skin colour (GRASP §III-A; skin GMM as LEVELSET TR §3.3).
 
 Shapes: B frames, H x W pixels, N training pixels, P = 2 chroma channels, G mixture components,
 S output side.
@@ -54,7 +54,13 @@ __all__ = [
 
 
 class GMM(NamedTuple):
-    """Gaussian mixture: log_weights (G,), means (G, P), chols (G, P, P) lower Cholesky factors."""
+    """A Gaussian mixture with full covariances.
+
+    Attributes:
+        log_weights: (G,) log mixture weights (-inf for an inactive component).
+        means: (G, P) component means.
+        chols: (G, P, P) lower Cholesky factors of the covariances.
+    """
 
     log_weights: Float[Array, " G"]
     means: Float[Array, "G P"]
@@ -62,7 +68,13 @@ class GMM(NamedTuple):
 
 
 class SkinModel(NamedTuple):
-    """Skin and background mixtures over chroma, and the log-ratio threshold ()."""
+    """Skin and background colour mixtures over chroma, and the decision threshold (GRASP §III-A).
+
+    Attributes:
+        skin: the skin `GMM` (P = 2 chroma channels).
+        background: the background `GMM`.
+        threshold: () the log-ratio threshold (0: equal priors).
+    """
 
     skin: GMM
     background: GMM
@@ -70,11 +82,18 @@ class SkinModel(NamedTuple):
 
 
 class Segmentation(NamedTuple):
-    """images (B, S, S) float32 grayscale crops (background 0); masks (B, S, S) bool; found (B,) bool;
-    boxes (B, 4) int32 (top, left, bottom, right), bottom/right exclusive, in frame pixels (may reach
-    outside the frame, which is padded with background); skin (B, H, W) bool, the filtered skin mask;
-    context (B, S, S) float32, the same boxes of the grey frames unmasked (outside the frame 0; zero
-    where not found)."""
+    """The hand segmented in each frame, cropped square (GRASP §III-A).
+
+    Attributes:
+        images: (B, S, S) float32 grayscale crops, background 0.
+        masks: (B, S, S) bool, the component within each crop.
+        found: (B,) bool, a component was found.
+        boxes: (B, 4) int32 (top, left, bottom, right) in frame pixels, bottom and right exclusive (may
+            reach outside the frame, which is padded with background); -1 where not found.
+        skin: (B, H, W) bool, the filtered skin mask.
+        context: (B, S, S) float32, the same boxes of the grey frames unmasked (0 outside the frame and
+            where not found): what is around the hand, e.g. the held object.
+    """
 
     images: Float[Array, "B S S"]
     masks: Bool[Array, "B S S"]
@@ -85,7 +104,16 @@ class Segmentation(NamedTuple):
 
 
 def rgb_to_chroma(rgb: Real[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 2"]:
-    """(..., 3) RGB in [0, 255] -> (..., 2) (Cr, Cb) / 255 of BT.601 YCrCb (OpenCV's coefficients)."""
+    """RGB to the chroma of BT.601 YCrCb (OpenCV's coefficients), the skin model's colour space.
+
+    The luma is dropped, so that the skin model is insensitive to brightness (GRASP §III-A).
+
+    Args:
+        rgb: (..., 3) RGB in [0, 255].
+
+    Returns:
+        (..., 2) (Cr, Cb) / 255.
+    """
     rgb = jnp.asarray(rgb, jnp.float32)
     r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
     y = 0.299 * r + 0.587 * g + 0.114 * b
@@ -110,7 +138,15 @@ def whiten(chols, diff) -> jax.Array:
 
 
 def gmm_log_prob(gmm: GMM, x: Float[ArrayLike, "*batch P"]) -> Float[Array, "*batch"]:
-    """log p(x) under the mixture for x (..., P) -> (...)."""
+    """The log-density of points under a Gaussian mixture.
+
+    Args:
+        gmm: the `GMM`.
+        x: (..., P) points.
+
+    Returns:
+        (...) log p(x).
+    """
     x = jnp.asarray(x)
     P = x.shape[-1]
     diff = x[..., None, :] - gmm.means  # (..., G, P)
@@ -124,7 +160,7 @@ def gmm_log_prob(gmm: GMM, x: Float[ArrayLike, "*batch P"]) -> Float[Array, "*ba
 def em(key, x, n_components: int, n_iter: int, reg, n_active=None, means=None):
     """EM of `fit_gmm`. n_active (traced, default all G): only the first n_active components are fitted,
     the others keep weight 0 (log weight -inf), so mixtures of several sizes share one compilation;
-    means (G, P): initial means (default: G distinct random data points). `colour_models.fit_gmm_bic`
+    means (G, P): initial means (default: G distinct random data points). `hog_jax.video.fit_gmm_bic`
     uses both, vmapped over candidate sizes and k-means++ starts."""
     N, P = x.shape
     G = n_components
@@ -151,13 +187,27 @@ def em(key, x, n_components: int, n_iter: int, reg, n_active=None, means=None):
 
 def fit_gmm(key: Key[Array, ""], x: Float[ArrayLike, "N P"], n_components: int = 4, n_iter: int = 100,
             reg: float = 1e-5) -> GMM:
-    """Fit a full-covariance GMM to x (N, P) by EM (`n_iter` iterations, means initialised at random
-    data points, covariances at the data covariance, `reg` added to every covariance's diagonal).
+    """A full-covariance Gaussian mixture fitted by EM (the skin model of GRASP §III-A; LEVELSET TR §3.3).
 
-    `reg` is the covariance floor: a component fitted to one point, or to identical points, gets the
-    covariance reg * I (never NaN); with N <= P points (a single pixel, say) the covariance cannot be
-    estimated and a `UserWarning` says so. ValueError naming the argument for empty or non-finite x,
-    |x| > 1e12, n_components outside [1, N], n_iter < 0, reg <= 0 or a key that is not a jax.random key."""
+    `n_iter` EM iterations from means at random data points and covariances at the data covariance,
+    `reg` added to every covariance's diagonal. `reg` is the covariance floor: a component fitted to one
+    point, or to identical points, gets the covariance reg * I (never NaN); with N <= P points the
+    covariance cannot be estimated and a `UserWarning` says so.
+
+    Args:
+        key: a `jax.random` key.
+        x: (N, P) points, |x| <= 1e12.
+        n_components: G, in [1, N].
+        n_iter: EM iterations, >= 0.
+        reg: the covariance floor, > 0.
+
+    Returns:
+        The fitted `GMM`.
+
+    Raises:
+        ValueError: naming the argument for empty or non-finite x, |x| > 1e12, n_components outside
+            [1, N], n_iter < 0, reg <= 0 or a key that is not a `jax.random` key.
+    """
     check_key(key, "key")
     x = as_array(x, "x", ndim=2, dtype=np.float32, min_value=-1e12, max_value=1e12)
     return _fit_gmm(key, x, n_components, n_iter, reg, "x", "n_components")
@@ -176,11 +226,27 @@ def _fit_gmm(key, x: np.ndarray, n_components, n_iter, reg, x_name: str, g_name:
 def fit_skin_model(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], background_rgb: Real[ArrayLike, "M 3"],
                    n_components: int = 4, n_background: int = 4, threshold: float = 0.0,
                    n_iter: int = 100) -> SkinModel:
-    """Fit skin and background GMMs on chroma from labelled RGB pixels (N, 3) and (M, 3) in [0, 255].
+    """Skin and background GMMs on chroma from labelled RGB pixels (GRASP §III-A).
 
-    Each mixture is `fit_gmm` of the pixels' chroma: from one pixel (or identical pixels) a component
-    gets the floor covariance reg * I (a `UserWarning` for N <= 2), never NaN. ValueError naming the
-    argument for pixels outside [0, 255], more components than pixels, or a key that is not a key."""
+    Each mixture is `fit_gmm` of the pixels' chroma (`rgb_to_chroma`): from one pixel (or identical
+    pixels) a component gets the floor covariance reg * I (a `UserWarning` for N <= 2), never NaN.
+
+    Args:
+        key: a `jax.random` key.
+        skin_rgb: (N, 3) skin pixels, RGB in [0, 255].
+        background_rgb: (M, 3) background pixels, RGB in [0, 255].
+        n_components: components of the skin mixture, in [1, N].
+        n_background: components of the background mixture, in [1, M].
+        threshold: the log-ratio threshold of the model (0: equal priors).
+        n_iter: EM iterations.
+
+    Returns:
+        A `SkinModel`.
+
+    Raises:
+        ValueError: naming the argument for pixels outside [0, 255] or not (N, 3), more components than
+            pixels, a non-finite threshold, or a key that is not a `jax.random` key.
+    """
     check_key(key, "key")
     skin = as_array(skin_rgb, "skin_rgb", shape=(None, 3), min_value=0, max_value=255)
     bg = as_array(background_rgb, "background_rgb", shape=(None, 3), min_value=0, max_value=255)
@@ -202,7 +268,18 @@ def log_ratio(model: SkinModel, rgb):
 
 
 def skin_log_ratio(model: SkinModel, rgb: Real[ArrayLike, "*batch 3"]) -> Float[Array, "*batch"]:
-    """log p_skin - log p_background per pixel of RGB values (..., 3) in [0, 255]."""
+    """The skin log-likelihood ratio log p_skin(c) - log p_background(c) per pixel (GRASP §III-A).
+
+    Args:
+        model: the `SkinModel`.
+        rgb: (..., 3) RGB values in [0, 255].
+
+    Returns:
+        (...) log ratios; a pixel is skin where the ratio exceeds the model's threshold.
+
+    Raises:
+        ValueError: `rgb` with values outside [0, 255] or a last axis other than 3.
+    """
     arr = as_array(rgb, "rgb", dtype=np.float32, min_value=0, max_value=255)
     if arr.shape[-1] != 3:
         raise ValueError(f"rgb: expected a last axis of 3 (R, G, B), got shape {arr.shape}")
@@ -211,7 +288,18 @@ def skin_log_ratio(model: SkinModel, rgb: Real[ArrayLike, "*batch 3"]) -> Float[
 
 @partial(jax.jit, static_argnames=("times",))
 def median3(mask: Bool[ArrayLike, "B H W"], times: int = 3) -> Bool[Array, "B H W"]:
-    """3 x 3 median filter of binary masks (B, H, W), applied `times` times (replicated borders)."""
+    """The 3 x 3 median filter of binary masks, applied `times` times (GRASP §III-A: three times).
+
+    On a binary mask the median is the majority of the 9 pixels; borders replicate (as
+    `cv2.medianBlur`). Jitted; no input checks.
+
+    Args:
+        mask: (B, H, W) binary masks.
+        times: how many times the filter is applied (static).
+
+    Returns:
+        (B, H, W) bool filtered masks.
+    """
     def once(m, _):
         p = jnp.pad(m.astype(jnp.int32), ((0, 0), (1, 1), (1, 1)), mode="edge")
         H, W = m.shape[1:]
@@ -277,12 +365,28 @@ def _chosen_components(labels: np.ndarray, stats: np.ndarray, seeds: np.ndarray 
 def crop_components(gray: Float[ArrayLike, "B H W"], masks: Bool[ArrayLike, "B H W"],
                     seed_points: Real[ArrayLike, "B 2"] | None = None, out_size: int = 64,
                     margin: float = 0.1) -> Segmentation:
-    """Steps 5-6 of `segment` on any masks: per frame of `gray` (B, H, W) (intensities, background 0
-    after cropping) the 8-connected component of `masks` (B, H, W) containing or nearest to the
-    frame's seed (row, col), or the largest without seeds, cropped as its square box grown by `margin`
-    and resampled to `out_size` with its mask. Returns a `Segmentation` (its `skin` is `masks`); a
-    frame without mask pixels gives found = False, a zero image, an all-False mask and box -1.
-    ValueError naming the argument."""
+    """Steps 5-6 of `segment` on any masks: the chosen component of each frame, cropped square.
+
+    Per frame, the 8-connected component of `masks` containing or nearest to the frame's seed point,
+    or the largest without seeds; its bounding box, grown by `margin` and made square, is cropped from
+    `gray` with the pixels outside the component set to 0 and resampled to out_size x out_size
+    (bilinear, antialiased), with its mask. Used by the video front end on its hand and object masks.
+
+    Args:
+        gray: (B, H, W) intensities.
+        masks: (B, H, W) bool masks.
+        seed_points: (B, 2) (row, col) per frame, or None.
+        out_size: S, the side of the crops, >= 1.
+        margin: box growth as a fraction of its larger side, >= 0.
+
+    Returns:
+        A `Segmentation` (its `skin` is `masks`); a frame without mask pixels gives found False, a zero
+        image, an all-False mask and box -1.
+
+    Raises:
+        ValueError: naming the argument for non-finite gray, masks or seeds of another shape,
+            out_size < 1 or margin < 0.
+    """
     g = as_array(gray, "gray", ndim=3, dtype=np.float32)
     m = as_array(masks, "masks", shape=g.shape, dtype=bool)
     S = check_int(out_size, "out_size", min_value=1)
@@ -307,12 +411,32 @@ def crop_components(gray: Float[ArrayLike, "B H W"], masks: Bool[ArrayLike, "B H
 
 def segment(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points: Real[ArrayLike, "B 2"] | None = None,
             out_size: int = 64, margin: float = 0.1, threshold: float | None = None) -> Segmentation:
-    """Segment the hand in each RGB frame (B, H, W, 3) (uint8 or real in [0, 255]).
+    """Segment the hand in each RGB frame by skin colour (GRASP §III-A).
 
-    seed_points: optional (B, 2) (row, col) per frame: the component containing the seed, or the one
-    with the pixel nearest to it, is kept; without seeds the largest component is kept.
-    out_size: S, the side of the returned crops. margin: box growth as a fraction of its larger side.
-    threshold: log-ratio threshold (default: the model's). Returns a `Segmentation`.
+    1. chroma (Cr, Cb) of BT.601 YCrCb; 2. the per-pixel log-likelihood ratio of the skin and
+    background mixtures; 3. skin = ratio > threshold; 4. a 3 x 3 median filter applied three times;
+    5. connected components (8-connectivity): the one containing or nearest to the frame's seed
+    point, or the largest; 6. its bounding box, grown by `margin` and made square (the hand keeps its
+    aspect ratio), cropped from the grey frame (0.299 R + 0.587 G + 0.114 B, / 255) with the pixels
+    outside the component set to 0 (black background, as GRASP's segmented images) and resampled to
+    S x S, with its mask (so that `hog` can exclude the background).
+
+    Args:
+        model: the `SkinModel`.
+        frames: (B, H, W, 3) RGB frames, uint8 or real in [0, 255].
+        seed_points: (B, 2) (row, col) per frame: the component containing the seed, or with the pixel
+            nearest to it, is kept; None: the largest component.
+        out_size: S, the side of the crops.
+        margin: box growth as a fraction of its larger side.
+        threshold: the log-ratio threshold (default: the model's).
+
+    Returns:
+        A `Segmentation`; a frame without skin gives found False, a zero image, an all-False mask and
+        box (-1, -1, -1, -1).
+
+    Raises:
+        ValueError: naming the argument for frames that are not (B, H, W, 3) in [0, 255], seed points
+            of another shape, out_size < 1, margin < 0 or a non-finite threshold.
     """
     arr = as_array(frames, "frames", ndim=4, dtype=np.float32, min_value=0, max_value=255)
     B, H, W, ch = arr.shape
@@ -334,8 +458,17 @@ _P = 2  # chroma channels
 
 @dataclasses.dataclass(frozen=True)
 class SkinStructure:
-    """What defines a `SkinModel`: the number of components of the skin and of the background mixture,
-    and the colour space the mixtures live in (P = 2 chroma channels)."""
+    """What defines a `SkinModel`: the components of each mixture and the colour space (P = 2 chroma).
+
+    Attributes:
+        n_skin_components: components of the skin mixture, >= 1.
+        n_background_components: components of the background mixture, >= 1.
+        chroma: the colour space the mixtures live in ("CrCb/255 BT.601", what `rgb_to_chroma`
+            computes).
+
+    Raises:
+        ValueError: naming the field for a count < 1 or another colour space.
+    """
 
     n_skin_components: int
     n_background_components: int
@@ -378,13 +511,41 @@ SKIN_CODEC = ModelCodec(kind="hog_jax.SkinModel", model_type=SkinModel, structur
 
 
 def save_skin_model(path: str | Path, model: SkinModel) -> Path:
-    """Write a `SkinModel` (its `SkinStructure` and arrays) to `path` (.npz appended when missing) and
-    return the path written; the model is checked as `load_skin_model` checks it."""
+    """Write a `SkinModel`: its `SkinStructure` and arrays (`lfd_common.save_model`).
+
+    The model is checked as `load_skin_model` checks it.
+
+    Args:
+        path: the file (.npz appended when missing).
+        model: the `SkinModel`.
+
+    Returns:
+        The path written.
+
+    Raises:
+        ValueError: a model whose covariances are not positive definite or whose weights do not sum
+            to 1.
+    """
     return save_model(path, model, [SKIN_CODEC])
 
 
 def load_skin_model(path: str | Path) -> SkinModel:
-    """Read a `SkinModel` written by `save_skin_model`. FileNotFoundError for a missing file; ValueError
-    naming the file for a corrupt one, another kind, or arrays that disagree with the stored structure,
-    covariances that are not positive definite or weights that do not sum to 1."""
+    """Read a `SkinModel` written by `save_skin_model`.
+
+    Loading checks every array's shape against the stored structure, that every covariance is
+    positive definite (its Cholesky factor lower triangular with a positive diagonal) and that each
+    mixture's weights sum to 1.
+
+    Args:
+        path: the file.
+
+    Returns:
+        The `SkinModel`.
+
+    Raises:
+        FileNotFoundError: a missing file.
+        ValueError: naming the file for a corrupt one, another kind, or arrays that disagree with the
+            stored structure, covariances that are not positive definite or weights that do not sum
+            to 1.
+    """
     return load_model(path, [SKIN_CODEC])

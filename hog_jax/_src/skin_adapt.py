@@ -1,4 +1,4 @@
-"""A skin model adapted to each frame: MAP-EM from the global skin model (issue 20).
+"""A skin model adapted to each frame: MAP-EM from the global skin model.
 
 Shapes: B frames, H x W pixels, N = H W, G_s / G_b skin / background components, P = 2 chroma.
 
@@ -84,11 +84,31 @@ def _adapt(model: SkinModel, chroma, n_iter: int, relevance, reg, adapt_skin: bo
 
 def adapt_skin_model(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], n_iter: int = 5,
                      relevance: float = 256.0, adapt_skin: bool = True, reg: float = 1e-5) -> SkinModel:
-    """Per-frame skin models (every array with a leading B axis) adapted to RGB `frames` (B, H, W, 3) in
-    [0, 255] by `n_iter` MAP-EM iterations from `model` (see the module docstring); `relevance` r > 0 in
-    pixels, `reg` the covariance floor; `adapt_skin` False keeps the skin mixture as it is (only the
-    background mixture and the skin share adapt). `segment_adapted` segments with them.
-    ValueError naming the argument for frames of the wrong shape or range, n_iter < 1, r <= 0, reg <= 0."""
+    """Per-frame skin models, adapted to each frame by MAP-EM from a global one (GRASP §III-A's model).
+
+    Both mixtures and the share of skin pixels are re-estimated per frame by EM over all the frame's
+    pixels (chroma), with the global mixtures as conjugate priors (maximum a posteriori adaptation,
+    Gauvain & Lee 1994; Reynolds et al. 2000): a component that n_k pixels' responsibility falls on
+    moves its weight, mean and covariance from the prior's towards the frame's statistics by
+    n_k / (n_k + r). Background components that take a flat clutter colour become tight around it,
+    so skin-coloured clutter loses the likelihood ratio it had under the broad global model.
+
+    Args:
+        model: the global `SkinModel` (`fit_skin_model`), the prior.
+        frames: (B, H, W, 3) RGB frames in [0, 255].
+        n_iter: MAP-EM iterations, >= 1.
+        relevance: r > 0, in pixels.
+        adapt_skin: False keeps the skin mixture as it is (only the background mixture and the skin
+            share adapt).
+        reg: the covariance floor, in (0, 1].
+
+    Returns:
+        A `SkinModel` whose every array has a leading B axis (`segment_adapted` segments with it).
+
+    Raises:
+        ValueError: naming the argument for frames of the wrong shape or range, n_iter < 1,
+            relevance <= 0, adapt_skin not a bool, or reg out of range.
+    """
     arr = as_array(frames, "frames", ndim=4, dtype=np.float32, min_value=0, max_value=255)
     if arr.shape[-1] != 3:
         raise ValueError(f"frames: expected (B, H, W, 3) RGB frames, got shape {arr.shape}")
@@ -107,12 +127,31 @@ def _adapted_masks(models: SkinModel, frames):
     return median3(ratio > models.threshold[:, None, None], 3)
 
 
-def segment_adapted(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points=None, out_size: int = 64,
+def segment_adapted(model: SkinModel, frames: Real[ArrayLike, "B H W 3"],
+                    seed_points: Real[ArrayLike, "B 2"] | None = None, out_size: int = 64,
                     margin: float = 0.1, n_iter: int = 5, relevance: float = 256.0,
                     adapt_skin: bool = True) -> Segmentation:
-    """`segment` with each frame's own adapted model (`adapt_skin_model(model, frames, n_iter,
-    relevance, adapt_skin)`) in step 2; every other step as `segment` (median filter, the seeded component, the
-    square crop), so the two differ only in the skin model. Returns a `Segmentation`."""
+    """`segment` with each frame's own adapted skin model (`adapt_skin_model`) in step 2.
+
+    Every other step is as `segment` (median filter, the seeded component, the square crop), so the
+    two differ only in the skin model.
+
+    Args:
+        model: the global `SkinModel`.
+        frames: (B, H, W, 3) RGB frames in [0, 255].
+        seed_points: (B, 2) (row, col) per frame, or None (the largest component).
+        out_size: S, the side of the crops.
+        margin: box growth as a fraction of its larger side.
+        n_iter: MAP-EM iterations (`adapt_skin_model`).
+        relevance: r > 0, in pixels (`adapt_skin_model`).
+        adapt_skin: whether the skin mixture adapts too (`adapt_skin_model`).
+
+    Returns:
+        A `Segmentation`.
+
+    Raises:
+        ValueError: naming the argument, as `adapt_skin_model` and `crop_components`.
+    """
     models = adapt_skin_model(model, frames, n_iter, relevance, adapt_skin)
     arr = np.asarray(frames, np.float32)
     skin = np.asarray(_adapted_masks(models, jnp.asarray(arr)))

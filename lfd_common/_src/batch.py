@@ -17,7 +17,15 @@ from lfd_common._src.validate import as_array
 
 
 def frame_mask(lengths: np.ndarray, n_frames: int) -> np.ndarray:
-    """(B, T) bool, True on the real frames t < lengths[b]."""
+    """The real frames of a padded batch.
+
+    Args:
+        lengths: (B,) frames per sequence.
+        n_frames: T, the padded length.
+
+    Returns:
+        (B, T) bool numpy array, True on the real frames t < lengths[b].
+    """
     return np.arange(n_frames)[None, :] < np.asarray(lengths)[:, None]
 
 
@@ -46,15 +54,30 @@ def pad_sequences(
     lengths_name: str = "lengths",
     dtype: Any = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Check sequences and return them padded: X (B, T, *F) in `dtype` and lengths (B,) int32.
+    """Check user sequences and return them as one padded batch (outside jit).
 
-    X: a padded (B, T, *F) array (with `lengths` for unequal lengths, default all T), one (T, *F)
-        sequence, or a list of (T_b, *F) arrays (then `lengths` must be None). F has `frame_ndim`
-        axes (1: a D-vector per frame).
-    dim: the expected size of the last axis (the model's D), if any.
-    dtype: the output dtype; default `float_dtype()`.
-    Raises `ValueError` naming the argument for an empty batch, zero frames or features, lengths
-    outside [1, T], NaN/inf within the lengths, or values that overflow `dtype`.
+    The one dtype policy of every library: values finite in the input but too large for `dtype`
+    are rejected, never turned into inf. Padding is zero (it may hold NaN on input: only frames
+    t < length are checked).
+
+    Args:
+        X: A padded (B, T, *F) array (with `lengths` for unequal lengths, default all T), one
+            (T, *F) sequence, or a list of (T_b, *F) arrays (then `lengths` must be None). F has
+            `frame_ndim` axes (1: a D-vector per frame).
+        lengths: (B,) frames per sequence in [1, T], or None.
+        dim: The expected size of the last axis (the model's D), if any.
+        frame_ndim: The number of per-frame axes F.
+        name: The argument name that errors about `X` start with.
+        lengths_name: The argument name that errors about `lengths` start with.
+        dtype: The output dtype; default `float_dtype()`.
+
+    Returns:
+        (X (B, T, *F) numpy in `dtype` with zero padding, lengths (B,) int32).
+
+    Raises:
+        ValueError: Naming the argument, for an empty batch, zero frames or features, a wrong
+            last axis, lengths outside [1, T] (or given with a list), NaN/inf within the lengths,
+            or values that overflow `dtype`.
     """
     dtype = np.dtype(float_dtype() if dtype is None else dtype)
     if isinstance(X, (list, tuple)) and len(X) and np.ndim(X[0]) == frame_ndim + 1:

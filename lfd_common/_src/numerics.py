@@ -13,21 +13,41 @@ import jax.numpy as jnp
 import numpy as np
 
 NEG_INF = -jnp.inf
+"""log 0: forbidden transitions, unreachable states and padded frames in log space."""
 
 
 def float_dtype() -> np.dtype:
-    """The floating dtype JAX computes in now: float32, or float64 when `jax_enable_x64` is on."""
+    """The floating dtype JAX computes in now.
+
+    Returns:
+        float32, or float64 when `jax_enable_x64` is on.
+    """
     return np.dtype(jnp.result_type(float))
 
 
 def safe_log(p: jax.Array) -> jax.Array:
-    """log p for p >= 0, with log 0 = -inf and a zero (not NaN) gradient there."""
+    """log p for p >= 0, with log 0 = -inf and a zero (not NaN) gradient there.
+
+    Args:
+        p: Non-negative values, any shape.
+
+    Returns:
+        log p, the same shape.
+    """
     positive = p != 0
     return jnp.where(positive, jnp.log(jnp.where(positive, p, 1.0)), NEG_INF)
 
 
 def safe_logsumexp(a: jax.Array, axis: int = -1) -> jax.Array:
-    """log Σ exp(a) along `axis`; -inf with a zero gradient for an all -inf slice."""
+    """log Σ exp(a) along `axis`; -inf with a zero gradient for an all -inf slice.
+
+    Args:
+        a: Log-values, any shape; -inf allowed.
+        axis: The axis to reduce.
+
+    Returns:
+        `a`'s shape without `axis`.
+    """
     peak = jnp.max(a, axis=axis, keepdims=True)
     peak = jax.lax.stop_gradient(jnp.where(jnp.isfinite(peak), peak, 0.0))
     total = jnp.sum(jnp.exp(a - peak), axis=axis, keepdims=True)
@@ -38,17 +58,34 @@ def safe_logaddexp(a: jax.Array, b: jax.Array) -> jax.Array:
     """Elementwise log(exp(a) + exp(b)); -inf with zero gradients where both are -inf.
 
     Written elementwise rather than as a reduction over a stacked axis, so XLA fuses it into one loop.
+
+    Args:
+        a: Log-values.
+        b: Log-values, broadcastable with `a`.
+
+    Returns:
+        The broadcast shape of `a` and `b`.
     """
     peak = jax.lax.stop_gradient(jnp.maximum(a, b))
     peak = jnp.where(jnp.isfinite(peak), peak, 0.0)
     return safe_log(jnp.exp(a - peak) + jnp.exp(b - peak)) + peak
 
 
-def solve_spd(matrix, rhs):
-    """x with M x = r for symmetric positive-definite M (..., d, d) and r (..., d), by a Cholesky
-    factorisation unrolled over the static, small d (elementwise over the batch): no LAPACK call, so
-    none of the batched custom calls that deadlock XLA:CPU (README, Known problems). Used by the PHMM
-    search (its Newton steps) and `sim`'s inverse kinematics (the 6 x 6 damped least-squares system)."""
+def solve_spd(matrix: jax.Array, rhs: jax.Array) -> jax.Array:
+    """Solve M x = r for symmetric positive-definite M by an unrolled Cholesky factorisation.
+
+    The factorisation is unrolled over the static, small d (elementwise over the batch): no LAPACK
+    call, so none of the batched custom calls that deadlock XLA:CPU (see Known problems in the
+    docs). Used by the PHMM search (its Newton steps, PHMM eq. 3) and `sim`'s inverse kinematics
+    (the 6 x 6 damped least-squares system). No checks: M must be positive definite.
+
+    Args:
+        matrix: (..., d, d) M.
+        rhs: (..., d) r.
+
+    Returns:
+        (..., d) x.
+    """
     d = matrix.shape[-1]
     low = [[None] * d for _ in range(d)]
     for j in range(d):

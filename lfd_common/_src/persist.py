@@ -34,12 +34,23 @@ import numpy as np
 from lfd_common._src.numerics import float_dtype
 
 SCHEMA_VERSION = 1
+"""The schema version `save_arrays` writes; readers accept 1..their `max_schema_version`."""
 _FORMAT = "lfd-jax"
 _META_KEY = "__lfd_meta__"
 
 
 def model_path(path: str | Path) -> Path:
-    """The file `save_*` writes for `path`: `path` itself if it ends in `.npz`, else `path + ".npz"`."""
+    """The file `save_*` writes (and `load_*` reads) for `path`.
+
+    Args:
+        path: A file path.
+
+    Returns:
+        `path` itself if it ends in `.npz`, else `path + ".npz"`.
+
+    Raises:
+        ValueError: Naming `path`, when it is not a str or os.PathLike.
+    """
     if not isinstance(path, (str, os.PathLike)):
         raise ValueError(f"path: expected a file path (str or os.PathLike), got {type(path).__name__}")
     path = Path(path)
@@ -53,10 +64,23 @@ def save_arrays(
     config: Mapping[str, Any] | None = None,
     schema_version: int = SCHEMA_VERSION,
 ) -> Path:
-    """Write `arrays` (name -> array-like) and a JSON `config` to `model_path(path)`; return that path.
+    """Write named arrays and a JSON config under a kind, atomically (no pickles).
 
-    `kind` names what is stored (e.g. "phmm_jax.HMM"); `load_arrays` checks it. The config must be
-    JSON-serialisable (frozen dataclasses: pass `dataclasses.asdict(cfg)`).
+    Args:
+        path: The file (".npz" appended when missing, `model_path`).
+        kind: Names what is stored (e.g. "phmm_jax.HMM"); `load_arrays` checks it.
+        arrays: Name -> array-like.
+        config: JSON-serialisable mapping (frozen dataclasses: pass `dataclasses.asdict(cfg)`), or
+            None.
+        schema_version: The version stored.
+
+    Returns:
+        The path written.
+
+    Raises:
+        ValueError: Naming the argument: an empty `kind`, `arrays` not a mapping, a reserved
+            name, ragged or object arrays (`arrays[name]`), `config` not a JSON-serialisable
+            mapping.
     """
     if not isinstance(kind, str) or not kind:
         raise ValueError("kind: expected a non-empty kind string")
@@ -84,11 +108,18 @@ def save_arrays(
     return path
 
 
-def write_npz(path, **arrays) -> Path:
+def write_npz(path: str | Path, **arrays: Any) -> Path:
     """`np.savez` to `path` atomically: written to a temporary file in the same folder, then renamed.
 
     Caches are shared by concurrent processes (the test suite runs on two pytest-xdist workers), and
     a reader must never see a half-written file.
+
+    Args:
+        path: The file, written as given (its folder is created).
+        **arrays: Name -> array.
+
+    Returns:
+        The path written.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -103,11 +134,21 @@ def write_npz(path, **arrays) -> Path:
     return path
 
 
-def read_file(path: str | Path, max_schema_version: int = SCHEMA_VERSION):
-    """Read any file written by `save_arrays`: `(kind, arrays, config, schema_version)`.
+def read_file(path: str | Path, max_schema_version: int = SCHEMA_VERSION
+              ) -> tuple[str, dict[str, np.ndarray], dict[str, Any], int]:
+    """Read any file written by `save_arrays`, whatever its kind.
 
-    Raises `FileNotFoundError` when the file is missing, and `ValueError` naming the file when it is
-    truncated or corrupt, not an lfd-jax file, or written with a newer schema than `max_schema_version`.
+    Args:
+        path: The file (".npz" appended when missing).
+        max_schema_version: The newest schema the caller reads.
+
+    Returns:
+        (kind, arrays (name -> numpy array), config (dict), schema_version).
+
+    Raises:
+        FileNotFoundError: The file is missing.
+        ValueError: Naming the file, when it is truncated or corrupt, not an lfd-jax file, or
+            written with a newer schema than `max_schema_version`.
     """
     path = model_path(path)
     if not path.exists():
@@ -149,9 +190,19 @@ def read_file(path: str | Path, max_schema_version: int = SCHEMA_VERSION):
 def load_arrays(
     path: str | Path, kind: str, max_schema_version: int = SCHEMA_VERSION
 ) -> tuple[dict[str, np.ndarray], dict[str, Any], int]:
-    """Read a file written by `save_arrays` under `kind`: `(arrays, config, schema_version)`.
+    """Read a file written by `save_arrays` under `kind`.
 
-    Raises as `read_file` does, and `ValueError` when the file holds another kind.
+    Args:
+        path: The file (".npz" appended when missing).
+        kind: The kind the caller expects.
+        max_schema_version: The newest schema the caller reads.
+
+    Returns:
+        (arrays (name -> numpy array), config (dict), schema_version).
+
+    Raises:
+        FileNotFoundError: The file is missing.
+        ValueError: As `read_file` does, and naming the file when it holds another kind.
     """
     stored, arrays, config, version = read_file(path, max_schema_version)
     if stored != kind:
@@ -166,11 +217,15 @@ def load_arrays(
 class ArraySpec:
     """What one parameter array of a model must look like, given the model's structure.
 
-    shape: sizes; an int must match exactly, a str names a size the structure does not fix (e.g.
-        "D", the feature dimension) and must be the same wherever the name recurs in one model.
-    dtype: "float" (loaded in the compute dtype, `float_dtype()`) or "int" (int32).
-    finite: floats must be finite; with False, -inf is allowed (log-probabilities of forbidden
-        transitions) but NaN and +inf are not.
+    A `ModelCodec`'s template puts one at every array leaf.
+
+    Attributes:
+        shape: Sizes; an int must match exactly, a str names a size the structure does not fix
+            (e.g. "D", the feature dimension) and must be the same wherever the name recurs in one
+            model.
+        dtype: "float" (loaded in the compute dtype, `float_dtype()`) or "int" (int32).
+        finite: Floats must be finite; with False, -inf is allowed (log-probabilities of forbidden
+            transitions) but NaN and +inf are not.
     """
 
     shape: tuple[int | str, ...]
@@ -180,15 +235,18 @@ class ArraySpec:
 
 @dataclasses.dataclass(frozen=True)
 class ModelCodec:
-    """How one model type is stored.
+    """How one model type is stored: each library describes its model types once with one.
 
-    kind: the name stored in the file ("phmm_jax.HMM").
-    model_type: the class `save_model` accepts under this kind.
-    structure_type: the frozen dataclass of the model's static structure (stored as JSON).
-    structure_of: model -> its structure.
-    template: structure -> the model with an `ArraySpec` at every array leaf (same pytree shape).
-    check: optional model -> None, raising `ValueError` for what shapes cannot express (positive-
-        definite covariances, normalised distributions, the structure agreeing with the arrays).
+    Attributes:
+        kind: The name stored in the file ("phmm_jax.HMM").
+        model_type: The class `save_model` accepts under this kind.
+        structure_type: The frozen dataclass of the model's static structure (stored as JSON).
+        structure_of: Model -> its structure.
+        template: Structure -> the model with an `ArraySpec` at every array leaf (same pytree
+            shape).
+        check: Optional model -> None, raising `ValueError` for what shapes cannot express
+            (positive-definite covariances, normalised distributions, the structure agreeing with
+            the arrays).
     """
 
     kind: str
@@ -212,8 +270,18 @@ def _leaf_names(tree, is_leaf=None) -> tuple[list[str], list[Any], Any]:
     return names, [leaf for _, leaf in leaves_with_path], treedef
 
 
-def structure_to_json(structure) -> dict:
-    """A frozen dataclass (possibly nested) as a JSON-ready dict."""
+def structure_to_json(structure: Any) -> dict:
+    """A model's structure (a frozen dataclass, possibly nested) as a JSON-ready dict.
+
+    Args:
+        structure: A dataclass instance.
+
+    Returns:
+        Its fields as a dict (nested dataclasses as dicts).
+
+    Raises:
+        ValueError: Naming `structure`, when it is not a dataclass instance.
+    """
     if not dataclasses.is_dataclass(structure) or isinstance(structure, type):
         raise ValueError(f"structure: expected a dataclass instance, got {type(structure).__name__}")
     return dataclasses.asdict(structure)
@@ -235,11 +303,20 @@ def _dataclass_in(hint) -> type | None:
     return None
 
 
-def structure_from_json(structure_type: type, data: Any, name: str = "structure"):
+def structure_from_json(structure_type: type, data: Any, name: str = "structure") -> Any:
     """Rebuild a (nested) frozen dataclass from `structure_to_json` output; JSON lists become tuples.
 
-    Unknown or missing fields raise `ValueError` naming them; the dataclass's own `__post_init__`
-    checks its values.
+    Args:
+        structure_type: The dataclass.
+        data: The JSON object (a dict).
+        name: What error messages start with.
+
+    Returns:
+        The `structure_type` instance; its own `__post_init__` has checked its values.
+
+    Raises:
+        ValueError: Naming `name`: `data` not an object, unknown or missing fields, or values the
+            dataclass rejects.
     """
     if not isinstance(data, dict):
         raise ValueError(f"{name}: expected a JSON object, got {type(data).__name__}")
@@ -313,10 +390,22 @@ def _codec_for_type(model, codecs: Sequence[ModelCodec]) -> ModelCodec:
     raise ValueError(f"model: expected one of {[c.model_type.__name__ for c in codecs]}, got {type(model).__name__}")
 
 
-def save_model(path: str | Path, model, codecs: Sequence[ModelCodec]) -> Path:
-    """Write `model` (one of the codecs' model types) to `model_path(path)` and return that path.
+def save_model(path: str | Path, model: Any, codecs: Sequence[ModelCodec]) -> Path:
+    """Write a model: its kind, its structure as JSON and one array per parameter leaf.
 
     The model is checked as `load_model` would check it, so a file that `save_model` writes always loads.
+
+    Args:
+        path: The file (".npz" appended when missing, `model_path`).
+        model: An instance of one of the codecs' model types.
+        codecs: The library's `ModelCodec`s.
+
+    Returns:
+        The path written.
+
+    Raises:
+        ValueError: Naming `model`, when no codec takes its type or its arrays disagree with its
+            structure (shapes, non-finite values, the codec's own check).
     """
     codec = _codec_for_type(model, codecs)
     structure = codec.structure_of(model)
@@ -326,11 +415,23 @@ def save_model(path: str | Path, model, codecs: Sequence[ModelCodec]) -> Path:
     return save_arrays(path, codec.kind, arrays, {"structure": structure_to_json(structure)})
 
 
-def load_model(path: str | Path, codecs: Sequence[ModelCodec]):
+def load_model(path: str | Path, codecs: Sequence[ModelCodec]) -> Any:
     """Read a model written by `save_model`; the stored kind picks the codec.
 
-    Raises `FileNotFoundError` for a missing file and `ValueError` naming the file for a corrupt one,
-    a kind none of `codecs` reads, a structure that does not validate, or arrays that disagree with it.
+    Every array is checked against the shapes the structure implies (`ArraySpec`), then the codec's
+    own check runs.
+
+    Args:
+        path: The file (".npz" appended when missing).
+        codecs: The library's `ModelCodec`s.
+
+    Returns:
+        The model, its arrays in the compute dtype.
+
+    Raises:
+        FileNotFoundError: The file is missing.
+        ValueError: Naming the file, for a corrupt one, a kind none of `codecs` reads, a structure
+            that does not validate, or arrays that disagree with it.
     """
     kind, arrays, config, _ = read_file(path)
     where = f"path: {model_path(path)}"

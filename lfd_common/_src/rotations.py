@@ -19,6 +19,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.typing import ArrayLike
 
 __all__ = ["axis_angle_to_matrix", "euler_zyx_to_quat", "matrix_to_quat", "quat_to_euler_zyx", "quat_to_matrix"]
 
@@ -32,10 +33,16 @@ def _as(xp, a):
     return a if isinstance(a, jax.Array) else np.asarray(a, dtype=np.result_type(np.asarray(a), np.float32))
 
 
-def quat_to_matrix(q):
-    """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices (as `mju_quat2Mat`).
+def quat_to_matrix(q: ArrayLike) -> ArrayLike:
+    """Rotation matrices of unit quaternions (as MuJoCo's `mju_quat2Mat`).
 
     The quaternion is not normalised here: pass q / |q| when it may not be a unit quaternion.
+
+    Args:
+        q: (..., 4) unit quaternions (w, x, y, z); jax in, jax out; numpy in, numpy out.
+
+    Returns:
+        (..., 3, 3) rotation matrices acting on column vectors.
     """
     xp = _xp(q)
     q = _as(xp, q)
@@ -47,11 +54,17 @@ def quat_to_matrix(q):
     ], -2)
 
 
-def matrix_to_quat(r):
-    """(..., 3, 3) rotation matrices -> (..., 4) unit quaternions (w, x, y, z) with w >= 0.
+def matrix_to_quat(r: ArrayLike) -> ArrayLike:
+    """Unit quaternions of rotation matrices (Shepperd's method, branch-free).
 
-    Shepperd's method, branch-free: the four candidate formulas are computed and, per matrix, the one
-    dividing by the largest of (1 + tr R, 1 + 2 R_ii - tr R) is kept (the best conditioned).
+    The four candidate formulas are computed and, per matrix, the one dividing by the largest of
+    (1 + tr R, 1 + 2 R_ii - tr R) is kept (the best conditioned).
+
+    Args:
+        r: (..., 3, 3) rotation matrices; jax in, jax out; numpy in, numpy out.
+
+    Returns:
+        (..., 4) unit quaternions (w, x, y, z) with w >= 0.
     """
     xp = _xp(r)
     r = _as(xp, r)
@@ -77,9 +90,17 @@ def matrix_to_quat(r):
     return q * xp.where(q[..., :1] < 0, -1.0, 1.0)
 
 
-def euler_zyx_to_quat(euler):
-    """(..., 3) intrinsic Z-Y'-X'' Euler angles (phi, theta, psi), R = Rz(phi) Ry(theta) Rx(psi), ->
-    (..., 4) unit quaternions (w, x, y, z) (w >= 0 for |phi|, |theta|, |psi| <= pi/2)."""
+def euler_zyx_to_quat(euler: ArrayLike) -> ArrayLike:
+    """Unit quaternions of intrinsic Z-Y'-X'' Euler angles, R = Rz(phi) Ry(theta) Rx(psi).
+
+    The same Z-Y-X order as the robot shoulder's Cardan angles in Humanoids 2008 §IV-B (eq. 19).
+
+    Args:
+        euler: (..., 3) angles (phi, theta, psi) in radians; jax in, jax out; numpy in, numpy out.
+
+    Returns:
+        (..., 4) unit quaternions (w, x, y, z) (w >= 0 for |phi|, |theta|, |psi| <= pi/2).
+    """
     xp = _xp(euler)
     half = 0.5 * _as(xp, euler)
     cz, sz = xp.cos(half[..., 0]), xp.sin(half[..., 0])
@@ -92,9 +113,15 @@ def euler_zyx_to_quat(euler):
     return xp.stack([w, x, y, z], axis=-1)
 
 
-def quat_to_euler_zyx(q):
-    """(..., 4) quaternions (w, x, y, z), normalised here, -> (..., 3) intrinsic Z-Y'-X'' Euler angles
-    (phi, theta, psi) with phi, psi in (-pi, pi] and theta in [-pi/2, pi/2]."""
+def quat_to_euler_zyx(q: ArrayLike) -> ArrayLike:
+    """Intrinsic Z-Y'-X'' Euler angles of quaternions (normalised here).
+
+    Args:
+        q: (..., 4) quaternions (w, x, y, z); jax in, jax out; numpy in, numpy out.
+
+    Returns:
+        (..., 3) angles (phi, theta, psi) with phi, psi in (-pi, pi] and theta in [-pi/2, pi/2].
+    """
     xp = _xp(q)
     q = _as(xp, q)
     q = q / xp.linalg.norm(q, axis=-1, keepdims=True)
@@ -105,9 +132,18 @@ def quat_to_euler_zyx(q):
     return xp.stack([phi, theta, psi], axis=-1)
 
 
-def axis_angle_to_matrix(axis, angle):
-    """Rotation matrices (..., 3, 3) about the unit `axis` (3,) by `angle` (...,) radians (Rodrigues:
-    R = I + sin(a) K + (1 - cos(a)) K^2, K the cross-product matrix of the axis)."""
+def axis_angle_to_matrix(axis: ArrayLike, angle: ArrayLike) -> ArrayLike:
+    """Rotation matrices about a unit axis (Rodrigues' formula).
+
+    R = I + sin(a) K + (1 - cos(a)) K^2, K the cross-product matrix of the axis.
+
+    Args:
+        axis: (3,) unit axis; jax in, jax out; numpy in, numpy out.
+        angle: (...,) angles in radians.
+
+    Returns:
+        (..., 3, 3) rotation matrices.
+    """
     xp = _xp(axis, angle)
     axis = _as(xp, axis)
     zero = xp.zeros_like(axis[0])

@@ -16,7 +16,7 @@ Shapes: B rows of this process, B' padded global rows, S = mesh size.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import jax
@@ -29,10 +29,20 @@ __all__ = ["ShardedBatch", "batch_mesh", "batch_spec", "check_mesh", "map_batch"
 
 
 def check_mesh(mesh: Any, name: str = "mesh") -> Mesh | None:
-    """`mesh` if it is a `jax.sharding.Mesh` (or None: no sharding), else `ValueError` naming `name`.
+    """Check the `mesh=` option of a batch entry point.
 
-    Also rejects a mesh whose devices are not grouped by process in process order (the layout that
-    `shard` assumes when several processes each load their own part)."""
+    Args:
+        mesh: A `jax.sharding.Mesh`, or None (no sharding).
+        name: The argument name that errors start with.
+
+    Returns:
+        `mesh`.
+
+    Raises:
+        ValueError: Naming `name`, when it is not a Mesh or None, or its devices are not grouped by
+            process in process order (the layout that `shard` assumes when several processes each
+            load their own part).
+    """
     if mesh is None:
         return None
     if not isinstance(mesh, Mesh):
@@ -45,8 +55,18 @@ def check_mesh(mesh: Any, name: str = "mesh") -> Mesh | None:
 
 
 def batch_mesh(n_devices: int | None = None, axis_name: str = "batch") -> Mesh:
-    """A 1-D mesh over the first `n_devices` of `jax.devices()` (all processes' devices, default all),
-    its one axis named `axis_name`. ValueError naming `n_devices` outside [1, number of devices]."""
+    """A 1-D mesh over the first devices of `jax.devices()` (all processes' devices), for `mesh=`.
+
+    Args:
+        n_devices: How many devices; None: all.
+        axis_name: The mesh's one axis name.
+
+    Returns:
+        The `jax.sharding.Mesh`, its devices grouped by process in process order.
+
+    Raises:
+        ValueError: Naming `n_devices`, outside [1, number of devices].
+    """
     devices = jax.devices()
     n = len(devices) if n_devices is None else n_devices
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not 1 <= n <= len(devices):
@@ -55,7 +75,15 @@ def batch_mesh(n_devices: int | None = None, axis_name: str = "batch") -> Mesh:
 
 
 def batch_spec(mesh: Mesh) -> PartitionSpec:
-    """The partition of axis 0 over every axis of `mesh` (the other axes are not split)."""
+    """The partition of a batch over a mesh.
+
+    Args:
+        mesh: The mesh.
+
+    Returns:
+        The `PartitionSpec` splitting axis 0 over every axis of `mesh` (the other axes are not
+        split).
+    """
     return PartitionSpec(tuple(mesh.axis_names))
 
 
@@ -64,10 +92,15 @@ def _local_devices(mesh: Mesh) -> int:
 
 
 class ShardedBatch(NamedTuple):
-    """A batch laid out on a mesh: `arrays` (each (B', ...) global jax arrays split along axis 0),
-    `mask` (B',) bool (True on real rows), `n_local` (B, this process's real rows) and `row_ids`
-    (B',) int64 numpy: each padded row's index in the unpadded global batch (processes in order), -1
-    on padding."""
+    """A batch laid out on a mesh (from `shard`).
+
+    Attributes:
+        arrays: Each a (B', ...) global jax array split along axis 0.
+        mask: (B',) bool, True on real rows.
+        n_local: B, this process's real rows.
+        row_ids: (B',) int64 numpy: each padded row's index in the unpadded global batch
+            (processes in order), -1 on padding.
+    """
 
     arrays: tuple
     mask: jax.Array
@@ -86,19 +119,34 @@ def _global(mesh: Mesh, spec: PartitionSpec, local: np.ndarray) -> jax.Array:
     return jax.make_array_from_process_local_data(sharding, local, global_shape)
 
 
-def pad_rows(arrays, size: int) -> tuple[np.ndarray, ...]:
-    """Every (B, ...) array (numpy) padded to `size` >= B rows with copies of its row 0 (not copied
-    when B = size)."""
+def pad_rows(arrays: Sequence[Any], size: int) -> tuple[np.ndarray, ...]:
+    """Pad arrays to a number of rows with copies of their row 0 (valid input, finite results).
+
+    Args:
+        arrays: Each (B, ...), the same B.
+        size: The rows wanted, >= B.
+
+    Returns:
+        Each array as numpy with `size` rows (not copied when B = size).
+    """
     arrays = [np.asarray(a) for a in arrays]
     return tuple(a if a.shape[0] == size else np.concatenate([a, np.broadcast_to(a[:1], (size - a.shape[0],) + a.shape[1:])])
                  for a in arrays)
 
 
-def shard(mesh: Mesh, *arrays) -> ShardedBatch:
-    """Pad this process's rows (every array (B, ...), the same B) and split them over `mesh`.
+def shard(mesh: Mesh, *arrays: Any) -> ShardedBatch:
+    """Pad this process's rows and split them over `mesh`.
 
     Padding copies row 0 (outside jit, `pad_rows`); `mask` marks the real rows. With several
-    processes every part is padded to the same size so that the global batch divides the mesh."""
+    processes every part is padded to the same size so that the global batch divides the mesh.
+
+    Args:
+        mesh: The mesh.
+        *arrays: Each (B, ...), the same B: this process's rows.
+
+    Returns:
+        The `ShardedBatch`.
+    """
     n = np.shape(arrays[0])[0]
     per_process = _local_devices(mesh)
     counts = np.array([n])
@@ -114,8 +162,16 @@ def shard(mesh: Mesh, *arrays) -> ShardedBatch:
     return ShardedBatch(padded, mask, n, row_ids)
 
 
-def replicate(mesh: Mesh, tree):
-    """Every leaf of `tree` (the same on every process) as an array replicated over `mesh`."""
+def replicate(mesh: Mesh, tree: Any) -> Any:
+    """Replicate every leaf of a pytree over a mesh.
+
+    Args:
+        mesh: The mesh.
+        tree: A pytree, the same on every process.
+
+    Returns:
+        The pytree with every leaf a jax array replicated over `mesh`.
+    """
     sharding = NamedSharding(mesh, PartitionSpec())
 
     def put(leaf):
@@ -126,8 +182,17 @@ def replicate(mesh: Mesh, tree):
     return jax.tree.map(put, tree)
 
 
-def unshard(mesh: Mesh, tree, n_local: int):
-    """Per-row results (every leaf (B', ...), split like `shard`'s) -> this process's B rows."""
+def unshard(mesh: Mesh, tree: Any, n_local: int) -> Any:
+    """Per-row results of a sharded batch back to this process's real rows.
+
+    Args:
+        mesh: The mesh.
+        tree: A pytree whose leaves are (B', ...), split like `shard`'s arrays.
+        n_local: B, this process's real rows (`ShardedBatch.n_local`).
+
+    Returns:
+        The pytree with leaves (B, ...).
+    """
     if jax.process_count() == 1:
         return jax.tree.map(lambda a: a[:n_local], tree)
     local = multihost_utils.global_array_to_host_local_array(tree, mesh, batch_spec(mesh))
@@ -144,22 +209,45 @@ def _compiled(fn: Callable, mesh: Mesh, n_shared: int, n_batched: int, static: t
 
 
 def sharded_call(fn: Callable, mesh: Mesh, shared: tuple, batched: tuple, *, static: tuple = (),
-                 out_batched: bool = True):
-    """`fn(*shared, *batched, **static)` run by `jax.shard_map` on every shard of `mesh` (jitted once
-    per fn, mesh and static options). `shared` leaves are replicated; `batched` are global arrays
-    split along axis 0 (`ShardedBatch.arrays`, its mask); `static` is a tuple of (name, hashable
-    value) keyword options. `fn` sees its shard's rows (B'/S, ...) and may reduce over the mesh with
-    `jax.lax.psum(x, tuple(mesh.axis_names))`. Its results are per-row (`out_batched`: returned as
-    global padded arrays) or the same on every shard (returned replicated). The map runs with
+                 out_batched: bool = True) -> Any:
+    """Run `fn(*shared, *batched, **static)` by `jax.shard_map` on every shard of `mesh`.
+
+    Jitted once per fn, mesh and static options. `fn` sees its shard's rows (B'/S, ...) and may
+    reduce over the mesh with `jax.lax.psum(x, tuple(mesh.axis_names))`. The map runs with
     `check_vma=False` (kernels written for one device, scans included, run as they are), so `fn`
     must not be differentiated through a collective: take gradients inside the shard, or let XLA
-    partition a jitted function of the split arrays (as `crf_jax.fit_chain` does)."""
+    partition a jitted function of the split arrays (as `crf_jax.fit_chain` does).
+
+    Args:
+        fn: The per-shard function (hashable).
+        mesh: The mesh.
+        shared: Arguments whose leaves are replicated.
+        batched: Global arrays split along axis 0 (`ShardedBatch.arrays`, its mask).
+        static: A tuple of (name, hashable value) keyword options.
+        out_batched: Whether the results are per-row (returned as global padded arrays) or the
+            same on every shard (returned replicated).
+
+    Returns:
+        `fn`'s results, global.
+    """
     call = _compiled(fn, mesh, len(shared), len(batched), tuple(static), out_batched)
     return call(*replicate(mesh, tuple(shared)), *batched)
 
 
-def map_batch(fn: Callable, mesh: Mesh, shared: tuple, batched: tuple, *, static: tuple = ()):
-    """Per-row `fn(*shared, *batched, **static)` -> its per-row results, the batch split over `mesh`
-    (padded, run by `sharded_call`, unpadded): this process's B rows, equal to `fn` on one device."""
+def map_batch(fn: Callable, mesh: Mesh, shared: tuple, batched: tuple, *, static: tuple = ()) -> Any:
+    """Run a per-row function with the batch split over a mesh; equal to `fn` on one device.
+
+    The batch is padded (`shard`), run by `sharded_call` and unpadded (`unshard`).
+
+    Args:
+        fn: The per-row function (hashable), `fn(*shared, *batched, **static)`.
+        mesh: The mesh.
+        shared: Arguments whose leaves are replicated.
+        batched: This process's arrays, each (B, ...), the same B.
+        static: A tuple of (name, hashable value) keyword options.
+
+    Returns:
+        `fn`'s per-row results for this process's B rows.
+    """
     batch = shard(mesh, *batched)
     return unshard(mesh, sharded_call(fn, mesh, shared, batch.arrays, static=static), batch.n_local)

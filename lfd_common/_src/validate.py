@@ -30,14 +30,29 @@ def as_array(
     min_value: float | None = None,
     max_value: float | None = None,
 ) -> np.ndarray:
-    """Convert `value` to a numpy array of `dtype` and check it, or raise `ValueError` naming `name`.
+    """Convert `value` to a numpy array of `dtype` and check it at a public boundary.
 
-    shape: expected shape; an int entry must match exactly, a str entry (e.g. "T") or None matches
-        any size. A str used twice must have the same size at both places.
-    ndim: allowed number of dimensions (an int or several), when `shape` is not given.
-    dtype: target dtype (None keeps the input's). Integer targets reject non-integral floats.
-    finite: reject NaN and +-inf. nonempty: reject arrays with a zero-sized axis.
-    min_value / max_value: inclusive bounds on every element.
+    The keywords state what the argument must look like; the message of every failure starts
+    with `name` and says what was expected and what was given.
+
+    Args:
+        value: Anything `np.asarray` accepts.
+        name: The argument's name, for error messages.
+        shape: Expected shape; an int entry must match exactly, a str entry (e.g. "T") or None
+            matches any size. A str used twice must have the same size at both places.
+        ndim: Allowed number of dimensions (an int or several), when `shape` is not given.
+        dtype: Target dtype (None keeps the input's). Integer targets reject non-integral floats.
+        finite: Reject NaN and +-inf.
+        nonempty: Reject arrays with a zero-sized axis.
+        min_value: Inclusive lower bound on every element.
+        max_value: Inclusive upper bound on every element.
+
+    Returns:
+        The checked numpy array.
+
+    Raises:
+        ValueError: Naming `name`: not convertible, ragged or non-numeric, non-integral for an
+            integer dtype, wrong shape or ndim, empty, NaN/inf, or out of bounds.
     """
     try:
         raw = np.asarray(value)
@@ -85,7 +100,20 @@ def as_array(
 
 
 def check_int(value: Any, name: str, *, min_value: int | None = None, max_value: int | None = None) -> int:
-    """Return `value` as an int, or raise `ValueError` if it is not an integer within the bounds."""
+    """Check an integer argument (bool is not an integer here).
+
+    Args:
+        value: The argument.
+        name: Its name, for error messages.
+        min_value: Inclusive lower bound, or None.
+        max_value: Inclusive upper bound, or None.
+
+    Returns:
+        `value` as an int.
+
+    Raises:
+        ValueError: Naming `name`, when it is not an integer within the bounds.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name}: expected an integer, got {value!r}")
     value = int(value)
@@ -104,7 +132,21 @@ def check_real(
     max_value: float | None = None,
     exclusive_min: bool = False,
 ) -> float:
-    """Return `value` as a finite float within the bounds, or raise `ValueError`."""
+    """Check a real-number argument: finite and within the bounds.
+
+    Args:
+        value: The argument (int or float, numpy scalars included; not bool).
+        name: Its name, for error messages.
+        min_value: Lower bound, or None.
+        max_value: Inclusive upper bound, or None.
+        exclusive_min: `min_value` itself is not allowed.
+
+    Returns:
+        `value` as a float.
+
+    Raises:
+        ValueError: Naming `name`, when it is not a real number, not finite, or out of bounds.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ValueError(f"{name}: expected a real number, got {value!r}")
     value = float(value)
@@ -118,7 +160,19 @@ def check_real(
 
 
 def check_choice(value: Any, name: str, choices: Iterable[Any]) -> Any:
-    """Return `value` if it is one of `choices`, else raise `ValueError` listing them."""
+    """Check that an argument is one of a few allowed values.
+
+    Args:
+        value: The argument.
+        name: Its name, for error messages.
+        choices: The allowed values.
+
+    Returns:
+        `value`.
+
+    Raises:
+        ValueError: Naming `name` and listing the choices, when it is none of them.
+    """
     choices = tuple(choices)
     if value not in choices:
         raise ValueError(f"{name}: expected one of {choices}, got {value!r}")

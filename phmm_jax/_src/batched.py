@@ -1,7 +1,7 @@
 """The jitted batch kernels behind the public API and the fitting code, on checked device arrays.
 
 They take padded batch-first input (X (B, T, D), lengths (B,)), run the column-layout routines of
-`phmm_jax.inference` (batch axis last, see there), and return batch-first results. `api` wraps them
+`inference` (batch axis last, see there), and return batch-first results. `api` wraps them
 with input checks; `em`, `gradfit` and `parametric` call them (or `emission_columns`) directly.
 Shapes: B sequences, T frames (padded), D features, N states, P pseudo-states per state.
 """
@@ -22,10 +22,13 @@ from phmm_jax._src.model import HMM, reachable_states
 
 
 class Posteriors(NamedTuple):
-    """Posteriors of a batch, batch-first; padded frames have zero probability.
+    """Posteriors of a batch, batch-first (PHMM §III-A); padded frames have zero probability.
 
-    state: (B, T, N) P(state i at t | x). pseudo: (B, T, N, P) P(pseudo-state (i, j) at t | x),
-    i.e. how long the path has been in state i. loglik: (B,) log p(x).
+    Attributes:
+        state: (B, T, N) P(state i at t | x).
+        pseudo: (B, T, N, P) P(pseudo-state (i, j) at t | x), i.e. how long the path has been in
+            state i (PHMM Fig. 3).
+        loglik: (B,) log p(x).
     """
 
     state: Float[Array, "B T N"]
@@ -36,8 +39,10 @@ class Posteriors(NamedTuple):
 class Messages(NamedTuple):
     """Forward and backward log-messages of a batch, batch-first; -inf on padded frames (t >= L).
 
-    log_alpha: (B, T, N, P) log p(x_{0:t}, z_t). log_beta: (B, T, N, P) log p(x_{t+1:L}, end | z_t).
-    loglik: (B,) log p(x).
+    Attributes:
+        log_alpha: (B, T, N, P) log p(x_{0:t}, z_t).
+        log_beta: (B, T, N, P) log p(x_{t+1:L}, end | z_t).
+        loglik: (B,) log p(x).
     """
 
     log_alpha: Float[Array, "B T N P"]
@@ -46,7 +51,7 @@ class Messages(NamedTuple):
 
 
 def emission_columns(hmm: HMM, X: Float[Array, "B T D"], all_states: bool = False) -> Float[Array, "T N B"]:
-    """(T, N, B) emission log-densities in the column layout of `phmm_jax.inference`; -inf for the
+    """(T, N, B) emission log-densities in the column layout of `inference`; -inf for the
     states no path can be in at that frame (`model.reachable_states`), unless `all_states`."""
     reachable = None if all_states else reachable_states(hmm.config, X.shape[1])
     return gaussian_log_density_columns(X, hmm.means, hmm.covariances, reachable)
@@ -73,7 +78,18 @@ def _batch_first(a):
 
 @jax.jit
 def batch_log_likelihood(hmm: HMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"]) -> Float[Array, " B"]:
-    """log p(x_b | hmm) (B,), the end constraint included."""
+    """Log-likelihoods of a checked, padded batch: the jitted kernel of `log_likelihood`.
+
+    No input checks (use `log_likelihood` for user data); differentiable in the model's arrays.
+
+    Args:
+        hmm: The model.
+        X: (B, T, D) padded sequences in the compute dtype.
+        lengths: (B,) int32 frames per sequence, each a length some path of the model allows.
+
+    Returns:
+        (B,) log p(x_b | hmm), the end constraint (exit from the last state) included.
+    """
     return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
 
 
@@ -87,6 +103,18 @@ def batch_messages(hmm: HMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"]
 
 @jax.jit
 def batch_posteriors(hmm: HMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"]) -> Posteriors:
+    """State and pseudo-state posteriors of a checked, padded batch: the jitted kernel of `posteriors`.
+
+    No input checks (use `posteriors` for user data).
+
+    Args:
+        hmm: The model.
+        X: (B, T, D) padded sequences in the compute dtype.
+        lengths: (B,) int32 frames per sequence, each a length some path of the model allows.
+
+    Returns:
+        `Posteriors`: state (B, T, N), pseudo (B, T, N, P), loglik (B,).
+    """
     state, pseudo, loglik = inference.posteriors(inference.chain(hmm), emission_columns(hmm, X), lengths)
     return Posteriors(_batch_first(state), jnp.swapaxes(pseudo, 0, 1), loglik)
 

@@ -15,7 +15,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxtyping import Array, Float
+from jax.sharding import Mesh
+from jaxtyping import Array, Float, Int
 
 from lfd_common import pad_sequences
 from lfd_common import check_mesh, shard, sharded_call
@@ -72,15 +73,31 @@ def sufficient_statistics(hmm: HMM, X, lengths, weights):
 
 
 @partial(jax.jit, static_argnames=("update_means", "axis_name"))
-def em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocount, update_means: bool = True,
-            axis_name=None):
-    """One EM iteration. Returns (new HMM, weighted mean log-likelihood per frame of `hmm`, starved).
+def em_step(hmm: HMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"], weights: Float[Array, " B"],
+            reg_covar: float | Array, duration_pseudocount: float | Array, update_means: bool = True,
+            axis_name: str | tuple[str, ...] | None = None) -> tuple[HMM, Array, Array]:
+    """One Baum–Welch EM iteration on a checked, padded batch (PHMM §III-A; eq. 2 for the means).
 
-    weights: (B,) per-sequence weights (0 for padding sequences, 1 otherwise).
-    reg_covar, duration_pseudocount: the M step's regularisation (`FitOptions`), traced.
-    axis_name: None, or the mesh axes the batch is split over inside `jax.shard_map`: every
-    sufficient statistic is then summed over them (`jax.lax.psum`), so each device gets the same
-    new HMM as one device with the whole batch.
+    The jitted step behind `fit_hmm`; no input checks. E step by forward-backward over the
+    pseudo-state chains, M step in closed form (weighted Gaussians, normalised continue/exit counts,
+    so forbidden transitions stay exactly -inf).
+
+    Args:
+        hmm: The current model.
+        X: (B, T, D) padded sequences in the compute dtype.
+        lengths: (B,) int32 frames per sequence.
+        weights: (B,) per-sequence weights (0 for padding sequences, 1 otherwise).
+        reg_covar: Added to every covariance diagonal (`FitOptions.reg_covar`), traced.
+        duration_pseudocount: Dirichlet pseudo-count on allowed transitions
+            (`FitOptions.duration_pseudocount`), traced.
+        update_means: False keeps `hmm.means` (the synchronised local training, PHMM §III-B1).
+        axis_name: None, or the mesh axes the batch is split over inside `jax.shard_map`: every
+            sufficient statistic is then summed over them (`jax.lax.psum`), so each device gets the
+            same new HMM as one device with the whole batch.
+
+    Returns:
+        (new HMM, weighted mean log-likelihood per frame of `hmm` (), number of starved states ()):
+        a starved state (total responsibility below 1e-6) keeps its previous Gaussian.
     """
     total = (lambda a: a) if axis_name is None else partial(jax.lax.psum, axis_name=axis_name)
     gamma, cont, exits, loglik = sufficient_statistics(hmm, X, lengths, weights)
@@ -213,27 +230,42 @@ def prepare_fit(X, lengths, config: HMMConfig, init: HMM | None, options: FitOpt
 
 
 def fit_hmm(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig(), init: HMM | None = None,
-            *, options: FitOptions = FitOptions(), return_history: bool = False, mesh=None
+            *, options: FitOptions = FitOptions(), return_history: bool = False, mesh: Mesh | None = None
             ) -> HMM | tuple[HMM, Float[Array, " I"]]:
-    """Fit an HMM by Baum–Welch EM on the pseudo-state chains: E step by
-    `inference.expected_statistics`, M step in closed form (weighted Gaussians, normalised
-    continue/exit counts, so forbidden transitions stay exactly -inf).
+    """Fit an HMM by Baum–Welch EM on the pseudo-state chains (PHMM §III-A, §III-B1; BMVC §3).
 
-    X: (B, T, D) padded with `lengths` (B,), a (T, D) sequence or a list of (T_b, D) arrays.
-    config: the structure (states, durations, covariance type).
-    init: start from this HMM (its config is used) instead of an equal segmentation in time.
-    options: `FitOptions` (max_iter, tol, reg_covar, duration_pseudocount, freeze_means_after).
-    Returns the fitted `HMM` (and the I per-iteration mean log-likelihoods per frame if asked).
+    E step by forward-backward over the pseudo-states, M step in closed form (weighted Gaussians,
+    normalised continue/exit counts, so forbidden transitions stay exactly -inf). EM stops after
+    `options.max_iter` iterations or once the mean log-likelihood per frame improves by less than
+    `options.tol`.
 
-    Never returns a NaN model: `reg_covar=0` (pure maximum likelihood) is accepted, but when it
-    leaves a covariance singular (a constant feature, collinear features, a state of at most D
-    frames) the fit raises `ValueError` naming `reg_covar`; data whose second moments overflow the
-    compute dtype (e.g. values of 1e20 in float32) raise `ValueError` naming `X` before fitting.
+    Args:
+        X: (B, T, D) padded with `lengths`, a (T, D) sequence or a list of (T_b, D) arrays.
+        lengths: (B,) frames per sequence, or None (all T, or the list's lengths).
+        config: The structure (states, durations, covariance type); ignored when `init` is given.
+        init: Start from this HMM (its config is used) instead of an equal segmentation in time.
+        options: `FitOptions` (max_iter, tol, reg_covar, duration_pseudocount, freeze_means_after).
+        return_history: Also return the per-iteration mean log-likelihoods per frame.
+        mesh: A `jax.sharding.Mesh` (or None: one device). The sequences are split over its
+            devices, each device computes its part of the E step and the sufficient statistics are
+            summed over the mesh; the fit equals the one-device fit to round-off. With several
+            processes each passes its own sequences (they must share D) and every process gets the
+            same HMM.
 
-    mesh: a `jax.sharding.Mesh` (or None: one device). The sequences are split over its devices,
-    each device computes its part of the E step and the sufficient statistics are summed over the
-    mesh (`sharded_em_step`); the fit equals the one-device fit to round-off. With several processes
-    each passes its own sequences (they must share D) and every process gets the same HMM.
+    Returns:
+        The fitted `HMM`, or (HMM, (I,) mean log-likelihoods per frame of the I iterations) with
+        `return_history`.
+
+    Raises:
+        ValueError: Never a NaN model instead: naming `reg_covar` when reg_covar=0 (pure maximum
+            likelihood) leaves a covariance singular (a constant feature, collinear features, a
+            state of at most D frames); naming `X` for data whose second moments overflow the
+            compute dtype (e.g. values of 1e20 in float32), checked before fitting; naming `X`,
+            `lengths`, `config`, `init`, `options` or `mesh` for a wrong type, shape or value
+            (NaN/inf, lengths no path fits, an invalid `init`).
+
+    Warns:
+        RuntimeWarning: A state had no responsibility; its previous Gaussian was kept.
     """
     X, lengths, weights, hmm = prepare_fit(X, lengths, config, init, options, mesh)
     hmm, history = run_em(hmm, X, lengths, weights, options, options.max_iter, options.freeze_means_after,

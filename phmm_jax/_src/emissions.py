@@ -5,6 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.scipy.linalg import solve_triangular
+from jaxtyping import Array, Float
 
 # Frames per block of the whitening GEMM. The (block, N·D) product then stays in the CPU cache
 # before it is squared and reduced; one unblocked product over all B·T frames spills to memory.
@@ -70,12 +71,22 @@ def with_ones(x, axis):
     return jnp.concatenate([x, jnp.ones_like(jax.lax.slice_in_dim(x, 0, 1, axis=axis))], axis=axis)
 
 
-def gaussian_log_density(X, means, covariances):
-    """log N(x_t | μ_i, Σ_i) for every frame and state: X (..., D) -> (..., N).
+def gaussian_log_density(X: Float[Array, "*batch D"], means: Float[Array, "N D"],
+                         covariances: Float[Array, "N D D"]) -> Float[Array, "*batch N"]:
+    """Gaussian emission log-densities log N(x | μ_i, Σ_i) of every frame under every state.
 
-    All states are whitened by one matrix product [x 1] @ [A_1^T ... A_N^T] ((D+1) x N·D, A_i the
-    affine whitening of state i), so the cost is one GEMM plus a reduction, whatever the batch shape;
-    it runs over blocks of `_BLOCK` frames.
+    The output densities b_i(x) of PHMM §III-A. All states are whitened by one matrix product
+    [x 1] @ [A_1^T ... A_N^T] ((D+1) x N·D, A_i the affine whitening of state i), so the cost is one
+    GEMM plus a reduction, whatever the batch shape; it runs over blocks of 512 frames. Pure jnp, no
+    input checks.
+
+    Args:
+        X: (..., D) frames, any leading axes.
+        means: (N, D) state means.
+        covariances: (N, D, D) positive-definite state covariances.
+
+    Returns:
+        (..., N) log-densities.
     """
     affine, const = affine_whitening(means, covariances)
     n_states, dim = means.shape
@@ -94,17 +105,28 @@ def gaussian_log_density(X, means, covariances):
     return out.reshape(X.shape[:-1] + (n_states,))
 
 
-def gaussian_log_density_columns(X, means, covariances, reachable=None):
-    """`gaussian_log_density` in the column layout of `phmm_jax.inference`: X (B, T, D) -> (T, N, B).
+def gaussian_log_density_columns(X: Float[Array, "B T D"], means: Float[Array, "N D"],
+                                 covariances: Float[Array, "N D D"],
+                                 reachable: tuple[np.ndarray, np.ndarray] | None = None) -> Float[Array, "T N B"]:
+    """`gaussian_log_density` of a padded batch in the column layout (T, N, B) of the forward pass.
 
-    Frames are taken k at a time (k·B about `_COLUMNS` columns): one product [A_1; ...; A_N]
+    Frames are taken k at a time (k·B about 1024 columns): one product [A_1; ...; A_N]
     (N·D x D+1) @ [x; 1] (D+1 x k·B) per block, and the sum of squares runs over rows, so every
     operation is a contiguous vector operation over the batch. Several frames per product amortise
-    the loop's per-iteration cost over more work than one frame per product (k = 1) would.
+    the loop's per-iteration cost over more work than one frame per product (k = 1) would. Pure
+    jnp, no input checks.
 
-    reachable: None, or (first, last) (T,) numpy, the only states whose densities are needed at each
-    frame (`model.reachable_states`); a block then multiplies only the rows of its states, and every
-    other state gets -inf. With durations 4-6 a block of frames needs at most 10 of 20 states.
+    Args:
+        X: (B, T, D) padded sequences.
+        means: (N, D) state means.
+        covariances: (N, D, D) positive-definite state covariances.
+        reachable: None, or (first, last), each (T,) numpy int: the only states whose densities
+            are needed at each frame (the states a path can be in then); a block then multiplies
+            only the rows of its states, and every other state gets -inf. With durations 4-6 a
+            block of frames needs at most 10 of 20 states.
+
+    Returns:
+        (T, N, B) log-densities (-inf outside `reachable`).
     """
     affine, const = affine_whitening(means, covariances)
     n_states, dim = means.shape
@@ -141,17 +163,26 @@ def _state_windows(reachable, n_states: int, n_blocks: int, per_block: int):
     return np.minimum(low, n_states - width).astype(np.int32), width
 
 
-def stacked_log_density_columns(X, means, covariances, reachable=None):
-    """log N(x_bt | μ_bi, Σ_bi) with one model per sequence: X (B, T, D), means (B, N, D),
-    covariances (B, N, D, D) -> (T, N, B), the layout of `phmm_jax.inference`.
+def stacked_log_density_columns(X: Float[Array, "B T D"], means: Float[Array, "B N D"],
+                                covariances: Float[Array, "B N D D"],
+                                reachable: tuple[np.ndarray, np.ndarray] | None = None) -> Float[Array, "T N B"]:
+    """Gaussian log-densities log N(x_bt | μ_bi, Σ_bi) with one model per sequence, column layout.
 
     Per sequence one product [A_b1; ...; A_bN] (N·D x D+1) @ [X_b^T; 1] (D+1 x T): the batched GEMM
-    needs no transposes of the (B, N, D, D+1) maps, forwards or backwards (PHMM recognition, where
-    every sequence has its own interpolated model).
+    needs no transposes of the (B, N, D, D+1) maps, forwards or backwards (PHMM recognition, eq. 3,
+    where every sequence has its own interpolated model). Pure jnp, no input checks.
 
-    reachable: None, or (first, last) (T,) numpy (`model.reachable_states`): the frames then go in
-    `_STACKED_BLOCKS` blocks, each multiplying only the rows of the states its frames can be in, and
-    every other state gets -inf (as in `gaussian_log_density_columns`).
+    Args:
+        X: (B, T, D) padded sequences.
+        means: (B, N, D) each sequence's state means.
+        covariances: (B, N, D, D) each sequence's positive-definite state covariances.
+        reachable: None, or (first, last), each (T,) numpy int (the states a path can be in at each
+            frame): the frames then go in 4 blocks, each multiplying only the rows of the states its
+            frames can be in, and every other state gets -inf (as in
+            `gaussian_log_density_columns`).
+
+    Returns:
+        (T, N, B) log-densities.
     """
     affine, const = affine_whitening(means, covariances)  # (B, N, D, D+1), (B, N)
     batch, n_states, dim = means.shape

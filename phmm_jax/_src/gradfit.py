@@ -117,13 +117,27 @@ def _minimise(params: Unconstrained, config: HMMConfig, X, lengths, reg_covar, n
 def fit_hmm_gradient(X: Sequences, lengths: Lengths = None, config: HMMConfig = HMMConfig(),
                      init: HMM | None = None, *, options: FitOptions = FitOptions(),
                      return_history: bool = False) -> HMM | tuple[HMM, Float[Array, " S"]]:
-    """Fit by gradient descent on the mean negative log-likelihood per frame, from `init` or the
-    equal-segmentation start that EM uses.
+    """Fit an HMM by gradient descent (optax) on the mean negative log-likelihood per frame.
 
-    options: `FitOptions` (optimizer, default optax L-BFGS; gradient_steps; reg_covar, and
-    duration_pseudocount for the start). Returns the HMM (and the objective at each of the S steps).
-    Raises `ValueError` as `fit_hmm` does, and naming `init` when its covariances do not exceed
-    `reg_covar` (the parametrisation Σ = L Lᵀ + reg_covar·I cannot represent them).
+    The same model and objective as `fit_hmm` (PHMM §III-A), searched over unconstrained parameters
+    (means, Cholesky factors with log-diagonals, duration logits) from `init` or the
+    equal-segmentation start that EM uses; forbidden transitions stay exactly -inf.
+
+    Args:
+        X: (B, T, D) padded with `lengths`, a (T, D) sequence or a list of (T_b, D) arrays.
+        lengths: (B,) frames per sequence, or None (all T, or the list's lengths).
+        config: The structure (states, durations, covariance type); ignored when `init` is given.
+        init: Start from this HMM (its config is used) instead of the equal segmentation.
+        options: `FitOptions` (optimizer, default optax L-BFGS; gradient_steps; reg_covar, and
+            duration_pseudocount for the start).
+        return_history: Also return the objective at each of the S steps.
+
+    Returns:
+        The fitted `HMM`, or (HMM, (S,) objective values) with `return_history`.
+
+    Raises:
+        ValueError: As `fit_hmm` does, and naming `init` when its covariances do not exceed
+            `reg_covar` (the parametrisation Σ = L Lᵀ + reg_covar·I cannot represent them).
     """
     X, lengths, _, start = prepare_fit(X, lengths, config, init, options)
     if init is not None:

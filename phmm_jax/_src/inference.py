@@ -6,7 +6,7 @@ messages (T, N, P, B), and a `Chain` holds the transition log-probabilities (N, 
 when the whole batch shares one HMM. With B on the minor axis every operation of a time step is one
 contiguous vector operation over the batch, where `vmap` over single sequences (batch-major) would
 reduce over the few (P = 4-6) pseudo-states of a state, which vectorises poorly. The public API
-(`phmm_jax.api`) returns batch-first arrays; the column-layout results here have their own types
+(`api`) returns batch-first arrays; the column-layout results here have their own types
 (`ColumnPosteriors`, `ColumnMessages`). Log-space sums use `lfd_common`'s NaN-safe `safe_logsumexp`
 / `safe_logaddexp`: -inf (unreachable pseudo-states, forbidden transitions) keeps finite gradients.
 
@@ -37,7 +37,7 @@ from phmm_jax._src.model import HMM, HMMConfig, state_band
 class Chain:
     """The pseudo-state chains of a batch of HMMs in column layout.
 
-    log_cont, log_exit: (N, P, B) continue / exit log-probabilities (see `phmm_jax.model`); B = 1
+    log_cont, log_exit: (N, P, B) continue / exit log-probabilities (see `model`); B = 1
     broadcasts one HMM over the batch. config: the structure they share (`HMMConfig`).
     """
 

@@ -23,7 +23,18 @@ __all__ = ["CODECS", "PHMMStructure", "check_hmm", "load", "save"]
 
 @dataclasses.dataclass(frozen=True)
 class PHMMStructure:
-    """The static structure of a `PHMM`: the local HMMs' structure and the grid (g_1, ..., g_d)."""
+    """The static structure of a `PHMM` (PHMM §III-B): the local HMMs' structure and the grid.
+
+    What a saved PHMM's file stores as JSON.
+
+    Attributes:
+        hmm: The `HMMConfig` every local HMM shares.
+        grid_shape: (g_1, ..., g_d), grid points per parameter, each >= 2.
+
+    Raises:
+        ValueError: Naming the field, for an `hmm` that is not an HMMConfig or a `grid_shape` that
+            is not a non-empty tuple of sizes >= 2.
+    """
 
     hmm: HMMConfig
     grid_shape: tuple[int, ...]
@@ -53,9 +64,22 @@ CODECS = (
 
 
 def save(path: str | Path, model: HMM | PHMM) -> Path:
-    """Write an `HMM` or a `PHMM` to `path` (".npz" appended when missing); returns the file written.
+    """Write an `HMM` or a `PHMM` to a model file (kind, structure as JSON, one array per leaf).
 
-    The model is checked as `load` checks it, so what `save` writes always loads.
+    The model is checked as `load` checks it, so what `save` writes always loads. Fit options are
+    not part of a model and not saved.
+
+    Args:
+        path: The file; ".npz" is appended when missing.
+        model: The `HMM` or `PHMM`.
+
+    Returns:
+        The path of the file written.
+
+    Raises:
+        ValueError: Naming `model` when it is neither an HMM nor a PHMM, or its arrays disagree
+            with its structure (covariances not positive definite, non-normalised transitions);
+            naming `path` when it is not a path.
     """
     return save_model(path, model, CODECS)
 
@@ -63,7 +87,15 @@ def save(path: str | Path, model: HMM | PHMM) -> Path:
 def load(path: str | Path) -> HMM | PHMM:
     """Read a model written by `save` (the kind stored in the file says which).
 
-    Raises `FileNotFoundError` for a missing file and `ValueError` naming the file for a corrupt or
-    foreign one, or one whose arrays disagree with its structure (see `check_hmm`).
+    Args:
+        path: The file (".npz" appended when missing, as `save` does).
+
+    Returns:
+        The stored `HMM` or `PHMM`, its arrays in the compute dtype.
+
+    Raises:
+        FileNotFoundError: The file does not exist.
+        ValueError: Naming the file, for a corrupt or foreign file, or one whose arrays disagree
+            with its structure (shapes, positive-definite covariances, normalised transitions).
     """
     return load_model(path, CODECS)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 from functools import partial
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -34,13 +34,23 @@ from lfd_common import NEG_INF, check_choice, check_int, safe_log
 class HMMConfig:
     """The static structure of a left-right (explicit-duration) Gaussian HMM: what defines the model.
 
-    It is hashable (the `HMM` pytree carries it as static metadata, so jitted functions specialise on
-    it) and is saved with the model; how a model is fitted is not part of it (`FitOptions`).
+    PHMM §III-B1 and Fig. 3: each state is a chain of pseudo-states sharing its Gaussian, so a path
+    stays between `min_duration` and `max_duration` steps in it (the papers use 20 states and
+    durations 4-6, BMVC §5.1). It is hashable (the `HMM` pytree carries it as static metadata, so
+    jitted functions specialise on it) and is saved with the model; how a model is fitted is not
+    part of it (`FitOptions`).
 
-    n_states: N, the number of states (each with one Gaussian).
-    min_duration, max_duration: steps a path stays in each state; `max_duration=None` gives the
-        classical left-right HMM with self-loops (geometric durations of at least `min_duration`).
-    covariance_type: "full" (default) or "diag" (diagonal matrices stored as (N, D, D) all the same).
+    Attributes:
+        n_states: N, the number of states (each with one Gaussian), >= 1.
+        min_duration: Steps a path stays in each state at least, >= 1.
+        max_duration: Steps a path stays in each state at most (>= min_duration); None gives the
+            classical left-right HMM with self-loops (geometric durations of at least
+            `min_duration`).
+        covariance_type: "full" (default) or "diag" (diagonal matrices, still stored as (N, D, D)).
+
+    Raises:
+        ValueError: Naming the field, for a non-integer or out-of-range count, min_duration >
+            max_duration, or an unknown covariance_type.
     """
 
     n_states: int = 20
@@ -60,6 +70,7 @@ class HMMConfig:
 
     @property
     def explicit_duration(self) -> bool:
+        """Whether the durations are explicit (`max_duration` set) rather than geometric."""
         return self.max_duration is not None
 
     @property
@@ -82,14 +93,19 @@ class HMMConfig:
          data_fields=["means", "covariances", "log_cont", "log_exit"], meta_fields=["config"])
 @dataclasses.dataclass(frozen=True)
 class HMM:
-    """A left-right HMM: an immutable pytree whose structure (`config`) is static metadata.
+    """A left-right Gaussian HMM over pseudo-state chains (PHMM §III-A, §III-B1, Fig. 3).
 
-    means: (N, D) state means.
-    covariances: (N, D, D) state covariances (diagonal matrices for covariance_type "diag").
-    log_cont: (N, P) log-probability of continuing from pseudo-state (i, j) to (i, j+1) (to itself
-        for j = P-1); -inf where the structure forbids it.
-    log_exit: (N, P) log-probability of exiting state i from pseudo-state (i, j); -inf where forbidden.
-    config: the `HMMConfig`, the static structure (N, durations, covariance type).
+    An immutable pytree whose structure (`config`) is static metadata. A `PHMM` stacks several of
+    them along a leading axis C.
+
+    Attributes:
+        means: (N, D) state means.
+        covariances: (N, D, D) state covariances (diagonal matrices for covariance_type "diag").
+        log_cont: (N, P) log-probability of continuing from pseudo-state (i, j) to (i, j+1) (to
+            itself for j = P-1); -inf where the structure forbids it.
+        log_exit: (N, P) log-probability of exiting state i from pseudo-state (i, j); -inf where
+            forbidden.
+        config: The `HMMConfig`, the static structure (N, durations, covariance type).
     """
 
     means: jnp.ndarray
@@ -100,13 +116,23 @@ class HMM:
 
     @property
     def n_states(self) -> int:
+        """N, the number of states."""
         return self.config.n_states
 
     @property
     def dim(self) -> int:
+        """D, the feature dimension."""
         return self.means.shape[-1]
 
-    def replace(self, **changes) -> "HMM":
+    def replace(self, **changes: Any) -> "HMM":
+        """A copy with some fields replaced (no checks: the arrays must keep their shapes).
+
+        Args:
+            **changes: Field names and their new values.
+
+        Returns:
+            The new `HMM`.
+        """
         return dataclasses.replace(self, **changes)
 
 
@@ -174,10 +200,22 @@ def transitions_from_counts(config: HMMConfig, cont_counts, exit_counts, pseudoc
     return jnp.where(visited, log_cont, fallback_cont), jnp.where(visited, log_exit, fallback_exit)
 
 
-def transitions_from_durations(config: HMMConfig, log_duration_probs):
-    """(log_cont, log_exit) (N, P) from log duration probabilities (N, P) over d = 1..P (explicit only).
+def transitions_from_durations(config: HMMConfig, log_duration_probs: Float[Array, "N P"]
+                               ) -> tuple[Float[Array, "N P"], Float[Array, "N P"]]:
+    """Pseudo-state transitions that give each state a chosen duration distribution (PHMM Fig. 3).
 
     The hazard of leaving after d steps, given d steps were reached, is p(d) / sum_{d' >= d} p(d').
+    Forbidden transitions stay exactly -inf. Pure jnp, differentiable.
+
+    Args:
+        config: The structure; it must have explicit durations (`max_duration` set).
+        log_duration_probs: (N, P) log p_i(d) over d = 1..P (P = max_duration).
+
+    Returns:
+        (log_cont, log_exit), each (N, P).
+
+    Raises:
+        ValueError: Naming `config`, when its durations are not explicit.
     """
     if not config.explicit_duration:
         raise ValueError("config: durations as a distribution need max_duration (explicit durations)")
@@ -200,7 +238,16 @@ def duration_log_probs(hmm: HMM) -> Float[Array, "N P"]:
 
 
 def expected_durations(hmm: HMM) -> Float[Array, " N"]:
-    """Expected number of steps spent in each state (N,), including a classical geometric tail."""
+    """Expected number of steps spent in each state, from the pseudo-state transitions.
+
+    Synthesis places the state means at the centres of these durations (PHMM §III-B2).
+
+    Args:
+        hmm: One model (log_cont (N, P)).
+
+    Returns:
+        (N,) expected durations in frames, including a classical chain's geometric tail.
+    """
     p = jnp.exp(duration_log_probs(hmm))
     d = jnp.arange(1, hmm.log_cont.shape[1] + 1, dtype=p.dtype)
     within = jnp.sum(p * d, axis=1)
@@ -227,10 +274,14 @@ def log_final(hmm: HMM) -> jnp.ndarray:
 class DenseHMM(NamedTuple):
     """An ordinary HMM over the S = N·P pseudo-states, equivalent to an `HMM` (see `expand_to_dense`).
 
-    log_initial: (S,). log_transition: (S, S), row = from. log_final: (S,) end weights: the
-    likelihood is logsumexp(alpha_T + log_final); libraries without end states must add it.
-    means: (S, D) and covariances: (S, D, D), each pseudo-state repeating its state's Gaussian.
-    state_of: (S,) the state index of each pseudo-state.
+    Attributes:
+        log_initial: (S,) log initial probabilities.
+        log_transition: (S, S) log transition probabilities, row = from.
+        log_final: (S,) end weights: the likelihood is logsumexp(alpha_T + log_final); libraries
+            without end states must add it.
+        means: (S, D), each pseudo-state repeating its state's mean.
+        covariances: (S, D, D), each pseudo-state repeating its state's covariance.
+        state_of: (S,) the state index of each pseudo-state.
     """
 
     log_initial: np.ndarray
@@ -242,7 +293,17 @@ class DenseHMM(NamedTuple):
 
 
 def expand_to_dense(hmm: HMM) -> DenseHMM:
-    """The equivalent ordinary HMM over pseudo-states (index s = i·P + j), as float64 numpy arrays."""
+    """The equivalent ordinary HMM over the pseudo-states (PHMM Fig. 3), for dense HMM libraries.
+
+    Args:
+        hmm: One model (not a PHMM's stack of local models).
+
+    Returns:
+        `DenseHMM` over the S = N·P pseudo-states (index s = i·P + j), as float64 numpy arrays.
+
+    Raises:
+        ValueError: Naming `hmm`, when it is not one `HMM`.
+    """
     if not isinstance(hmm, HMM) or np.ndim(hmm.log_cont) != 2:
         raise ValueError(f"hmm: expected one phmm_jax.HMM, got {type(hmm).__name__}")
     log_cont = np.asarray(hmm.log_cont, np.float64)

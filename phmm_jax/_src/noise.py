@@ -1,4 +1,4 @@
-"""Recognition under i.i.d. observation noise (issue 21): if the tracker reports x_t = y_t + n_t with
+"""Recognition under i.i.d. observation noise: if the tracker reports x_t = y_t + n_t with
 n_t ~ N(0, σ² I) independent of the movement y, a state's emission N(μ, Σ) for y becomes N(μ, Σ + σ² I)
 for x. Models trained on clean movements and scored on noisy ones are too confident without that term.
 `estimate_noise_variance` reads σ² off the sequences themselves, so no setting is tuned on test data."""
@@ -20,11 +20,24 @@ _CHI2_1_MEDIAN = 0.454936
 
 
 def estimate_noise_variance(X: Sequences, lengths: Lengths = None) -> float:
-    """σ² of white noise on every feature, from the second differences d_t = x_t − 2x_{t−1} + x_{t−2}
-    of all valid frames: for white noise var(d) = 6σ², and a movement sampled densely enough adds
-    little to d, so σ² = median(d²) / (6 · 0.4549) (the median makes outliers and fast phases harmless).
-    X: (B, T, D) with lengths (B,), a (T, D) sequence or a list of (T_b, D) arrays; needs a sequence
-    of at least 3 frames. Raises ValueError naming the argument."""
+    """Estimate the variance σ² of white observation noise from the sequences themselves.
+
+    From the second differences d_t = x_t − 2x_{t−1} + x_{t−2} of all valid frames: for white noise
+    var(d) = 6σ², and a movement sampled densely enough adds little to d, so
+    σ² = median(d²) / (6 · 0.4549) (the median makes outliers and fast phases harmless). No setting
+    is tuned on test data. BMVC §5.3 tests recognition under added Gaussian noise.
+
+    Args:
+        X: (B, T, D) padded with `lengths`, a (T, D) sequence or a list of (T_b, D) arrays.
+        lengths: (B,) frames per sequence, or None (all T, or the list's lengths).
+
+    Returns:
+        σ², the same on every feature (data units squared).
+
+    Raises:
+        ValueError: Naming the argument: no sequence of at least 3 frames (`X`), NaN/inf within the
+            lengths, lengths outside [1, T].
+    """
     X, lengths = pad_sequences(X, lengths, dtype=np.float64)
     if X.shape[1] < 3 or np.max(lengths) < 3:
         raise ValueError("X: the noise estimate needs a sequence of at least 3 frames")
@@ -34,8 +47,22 @@ def estimate_noise_variance(X: Sequences, lengths: Lengths = None) -> float:
 
 
 def with_observation_noise(model: HMM | PHMM, variance: float | ArrayLike) -> HMM | PHMM:
-    """The model of x = y + n, n ~ N(0, variance · I): every state covariance (of every grid corner
-    of a PHMM) plus variance · I. variance: a finite number >= 0 (e.g. `estimate_noise_variance`)."""
+    """The model of x = y + n, n ~ N(0, variance · I): every state covariance plus variance · I.
+
+    A state's emission N(μ, Σ) for the clean movement y becomes N(μ, Σ + σ² I) for the tracked x
+    (for a PHMM: at every grid corner, so every interpolated λ^φ gets it too, PHMM eq. 1).
+
+    Args:
+        model: An `HMM` or a `PHMM`.
+        variance: σ², a finite number >= 0 (e.g. from `estimate_noise_variance`).
+
+    Returns:
+        The model of the same type with the widened covariances.
+
+    Raises:
+        ValueError: Naming `variance` (negative, NaN/inf, not a number) or `model` (neither an
+            HMM nor a PHMM).
+    """
     variance = check_real(variance, "variance", min_value=0.0)
     if isinstance(model, PHMM):
         return PHMM(with_observation_noise(model.local, variance), model.grid_shape)

@@ -6,13 +6,13 @@ body tracking while they happen).
 Shapes: D features, S streams, T frames, K classes (PHMMs), M φ candidates per class, d parameters
 (d <= 3), W the detector's window, F the movement buffer (max_frames).
 
-    online_recognizer(phmms, threshold, window=5, ...) -> OnlineRecognizer
+    online_recognizer(phmms, threshold, options=OnlineOptions()) -> OnlineRecognizer
     init_online(recognizer, n_streams=None) -> OnlineState
     online_step(recognizer, state, x_t) -> (OnlineState, OnlineFrame)     pure, jit-able, fixed cost
     online_step_batch(recognizer, states, X_t (S, D))                     S streams (vmap)
     online_scan(recognizer, stream (T, D), state=None) -> (OnlineState, OnlineFrame (T, ...))  lax.scan
-    run_online / OnlineStream (`phmm_jax.online_events`): the movements found, refined by `recognize`
-Per frame, every class keeps a forward state (`phmm_jax.stream`) for each of the M = lattice_points^d
+    run_online / OnlineStream (`online_events`): the movements found, refined by `recognize`
+Per frame, every class keeps a forward state (`stream`) for each of the M = lattice_points^d
 candidates φ_m of the lattice `recognize` starts from (λ_k^{φ_m} interpolated and factored once), so
 a frame costs K·M forward steps whatever has happened before. The detector looks W frames ahead of
 the models: at frame t the models consume frame u = t - W.
@@ -40,38 +40,32 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 from lfd_common import NEG_INF, check_int, check_real, float_dtype
 from phmm_jax._src.checks import check_type, model_bounds
 from phmm_jax._src.inference import stacked_chain
+from phmm_jax._src.options import OnlineOptions, check_online_options
 from phmm_jax._src.parametric import PHMM, start_lattice, interpolate
 from phmm_jax._src.stream import advance, check_frames, check_state, emitter, is_traced, summaries
 
 __all__ = ["OnlineFrame", "OnlineRecognizer", "OnlineState", "init_online", "online_recognizer", "online_scan",
            "online_step", "online_step_batch"]
 
-@dataclasses.dataclass(frozen=True)
-class OnlineOptions:
-    """The recogniser's static settings (see `online_recognizer`); min_frames: the shortest movement
-    any class explains."""
-
-    window: int
-    max_frames: int
-    min_frames: int
-    lattice_points: int
-    epsilon: float
-    n_steps: int
-    face_steps: int
-
-
 @partial(jax.tree_util.register_dataclass,
          data_fields=["phmms", "candidates", "chains", "emitters", "threshold", "log_exit_threshold"],
-         meta_fields=["options"])
+         meta_fields=["options", "min_frames"])
 @dataclasses.dataclass(frozen=True)
 class OnlineRecognizer:
-    """An online recogniser (a pytree; build it with `online_recognizer`).
+    """An online recogniser of K classes (a pytree; build it with `online_recognizer`).
 
-    phmms: the K PHMMs (one per class), for the refinement by `recognize`.
-    candidates: (M, d) the φ lattice every class keeps a forward state for.
-    chains, emitters: per class, the chains (N_k, P_k, M) and factored emissions of λ_k^{φ_m}.
-    threshold: () displacement threshold (data units). log_exit_threshold: () log of `exit_threshold`.
-    options: `OnlineOptions` (static).
+    BMVC 2008 §5.4, Humanoids 2008 §V. Its arrays are traced; `options` and `min_frames` are static
+    metadata, so jitted steps specialise on them.
+
+    Attributes:
+        phmms: The K PHMMs (one per class), for the refinement by `recognize`.
+        candidates: (M, d) the φ lattice every class keeps a forward state for.
+        chains: Per class, the pseudo-state chains (N_k, P_k, M) of λ_k^{φ_m}.
+        emitters: Per class, the factored emissions of λ_k^{φ_m}.
+        threshold: () displacement threshold (data units).
+        log_exit_threshold: () log of `options.exit_threshold`.
+        options: The `OnlineOptions` it was built with, `max_frames` resolved (static).
+        min_frames: The shortest movement any class explains (static).
     """
 
     phmms: tuple
@@ -81,30 +75,43 @@ class OnlineRecognizer:
     threshold: jnp.ndarray
     log_exit_threshold: jnp.ndarray
     options: OnlineOptions
+    min_frames: int
 
     @property
     def dim(self) -> int:
+        """D, the feature dimension of every class."""
         return self.phmms[0].local.dim
 
     @property
     def n_classes(self) -> int:
+        """K, the number of classes."""
         return len(self.phmms)
 
 
-def online_recognizer(phmms: PHMM | Sequence[PHMM], threshold: float, *, window: int = 5,
-                      exit_threshold: float = 0.5, lattice_points: int = 5, max_frames: int | None = None,
-                      epsilon: float = 0.1, n_steps: int = 6, face_steps: int = 3) -> OnlineRecognizer:
-    """An online recogniser for the classes `phmms` (a PHMM or a sequence of K PHMMs, same D, d <= 3).
+def online_recognizer(phmms: PHMM | Sequence[PHMM], threshold: float, *,
+                      options: OnlineOptions = OnlineOptions()) -> OnlineRecognizer:
+    """Build an online recogniser for the classes `phmms` (BMVC 2008 §5.4, Humanoids 2008 §V).
 
-    threshold: displacement (data units, > 0) over `window` frames that starts a movement; the hand is
-        still / back at rest within it (choose it above the tracker's noise over the window).
-    window: W >= 1, the detector's look-ahead, and so the latency of a report in frames.
-    exit_threshold: in (0, 1]; a movement may also end where the models' exit probability (BMVC
-        §5.4: the final state's exit) reaches it, although the hand is not back at the rest position.
-    lattice_points: the candidates φ per class are the lattice_points^d lattice `recognize` starts from.
-    max_frames: F, the longest movement kept (default: the longest path of any class; required for
-        classical HMMs, whose paths are unbounded).
-    epsilon, n_steps, face_steps: passed to `recognize` for the refinement.
+    Every class keeps a forward state for each candidate φ of the lattice `recognize` starts from
+    (λ_k^{φ_m} interpolated and factored here, once), so a frame costs K·M forward steps.
+
+    Args:
+        phmms: A PHMM or a sequence of K PHMMs (same D, same d <= 3), one per class.
+        threshold: Displacement (data units, > 0) over `options.window` frames that starts a
+            movement; the hand is still / back at rest within it. Choose it above the tracker's
+            noise over the window.
+        options: `OnlineOptions`: window, exit_threshold, lattice_points, max_frames, and the
+            `recognize` settings of the refinement (epsilon, n_steps, face_steps).
+
+    Returns:
+        The `OnlineRecognizer`, its `options.max_frames` resolved (default: the longest path of
+        any class).
+
+    Raises:
+        ValueError: Naming the argument: `phmms` empty, not PHMMs, differing in D or d, or d > 3;
+            `threshold` not > 0; `options` not an `OnlineOptions`; `max_frames` shorter than the
+            shortest path of a class, or None while a class is a classical HMM (unbounded paths);
+            a class whose parameters cannot be factored (`phmms[k]`).
     """
     if isinstance(phmms, PHMM):
         phmms = [phmms]
@@ -118,14 +125,10 @@ def online_recognizer(phmms: PHMM | Sequence[PHMM], threshold: float, *, window:
     if d > 3:
         raise ValueError(f"phmms: the online recogniser keeps lattice_points^d candidates per class; d <= 3, got {d}")
     threshold = check_real(threshold, "threshold", min_value=0.0, exclusive_min=True)
-    window = check_int(window, "window", min_value=1)
-    exit_threshold = check_real(exit_threshold, "exit_threshold", min_value=0.0, exclusive_min=True, max_value=1.0)
-    lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
-    epsilon = check_real(epsilon, "epsilon", min_value=0.0)
-    n_steps = check_int(n_steps, "n_steps", min_value=1)
-    face_steps = check_int(face_steps, "face_steps", min_value=0)
+    options = check_online_options(options)
     min_frames = min(p.config.min_length for p in phmms)
     longest = [p.config.max_length for p in phmms]
+    max_frames = options.max_frames
     if max_frames is None:
         if None in longest:
             raise ValueError("max_frames: required when a class is a classical HMM "
@@ -135,11 +138,11 @@ def online_recognizer(phmms: PHMM | Sequence[PHMM], threshold: float, *, window:
     for k, phmm in enumerate(phmms):  # what the kernels factor must be valid (raises naming the PHMM)
         model_bounds(phmm.local, f"phmms[{k}]")
     dtype = float_dtype()
-    candidates = jnp.asarray(start_lattice(d, lattice_points), dtype)
+    candidates = jnp.asarray(start_lattice(d, options.lattice_points), dtype)
     chains, emitters = zip(*[_candidate_models(phmm, candidates) for phmm in phmms])
-    options = OnlineOptions(window, max_frames, min_frames, lattice_points, epsilon, n_steps, face_steps)
     return OnlineRecognizer(tuple(phmms), candidates, tuple(chains), tuple(emitters), jnp.asarray(threshold, dtype),
-                            jnp.asarray(np.log(exit_threshold), dtype), options)
+                            jnp.asarray(np.log(options.exit_threshold), dtype), options.replace(max_frames=max_frames),
+                            min_frames)
 
 
 @jax.jit
@@ -150,14 +153,19 @@ def _candidate_models(phmm: PHMM, candidates):
 
 
 class OnlineState(NamedTuple):
-    """The recogniser's state of one stream (leading S axis for S streams).
+    """The online recogniser's state of one stream (leading S axis for S streams).
 
-    t: () int32 frames seen. recent: (W + 1, D) the last W + 1 frames (ring buffer, frame t at
-    t mod W+1). moving: () bool, the last frame the models consumed (u = t - 1 - W) belongs to a
-    running movement. rest: (D,) the rest position the current (last) movement left. start: () int32
-    its first frame. length: () int32 its frames so far. frames: (F, D) its frames (the first
-    `length` rows; kept after the end until the next start). forward: per class, (N_k, P_k, M)
-    forward messages of the candidates after the movement's frames so far.
+    Attributes:
+        t: () int32 frames seen.
+        recent: (W + 1, D) the last W + 1 frames (ring buffer, frame t at t mod W+1).
+        moving: () bool, the last frame the models consumed (u = t - 1 - W) belongs to a running
+            movement.
+        rest: (D,) the rest position the current (last) movement left.
+        start: () int32 its first frame.
+        length: () int32 its frames so far.
+        frames: (F, D) its frames (the first `length` rows; kept after the end until the next start).
+        forward: Per class, (N_k, P_k, M) forward messages of the candidates after the movement's
+            frames so far.
     """
 
     t: Int[Array, ""]
@@ -171,15 +179,24 @@ class OnlineState(NamedTuple):
 
 
 class OnlineFrame(NamedTuple):
-    """What the recogniser says after frame t (leading axes for streams and frames).
+    """What the online recogniser says after frame t (leading axes for streams and frames).
 
-    frame: t. position: u = t - W, the frame the models have consumed (-1 for t < W).
-    moving: frame u belongs to a movement. started / ended: a movement starts / ends at u.
-    start: the current (last) movement's first frame. end: u where `ended`, else -1.
-    label: () provisional class, the best running log-likelihood (-1 when none is finite or at rest).
-    prefix: (K,) best running log p(x_{start:u}) (paths not yet ended) over the candidates per class. loglik: (K,) the
-    same, finished (the movement ends at u). phi: (K, d) the best candidate (by prefix) per class.
-    log_exit: () log of the largest probability over classes and candidates that the movement ends at u.
+    Attributes:
+        frame: t.
+        position: u = t - W, the frame the models have consumed (-1 for t < W).
+        moving: Frame u belongs to a movement.
+        started: A movement starts at u.
+        ended: A movement ends at u.
+        start: The current (last) movement's first frame.
+        end: u where `ended`, else -1.
+        label: () provisional class, the best running log-likelihood (-1 when none is finite or at
+            rest).
+        prefix: (K,) best running log p(x_{start:u}) (paths not yet ended) over the candidates per
+            class.
+        loglik: (K,) the same, finished (the movement ends at u).
+        phi: (K, d) the best candidate (by prefix) per class.
+        log_exit: () log of the largest probability over classes and candidates that the movement
+            ends at u.
     """
 
     frame: Int[Array, ""]
@@ -240,7 +257,7 @@ def _online_step(rec: OnlineRecognizer, state: OnlineState, x) -> tuple[OnlineSt
     log_exit = jnp.max(jnp.where(running, loglik - jnp.where(running, prefix, 0.0), NEG_INF))
     still = jnp.max(_distance(recent, x_u)) <= rec.threshold
     home = _distance(x_u, rest) <= rec.threshold
-    settled = still & (home | (log_exit >= rec.log_exit_threshold)) & (length >= opts.min_frames)
+    settled = still & (home | (log_exit >= rec.log_exit_threshold)) & (length >= rec.min_frames)
     ended = moving & (settled | (length >= opts.max_frames) | ~jnp.any(running))
 
     best = jnp.argmax(prefix, axis=1)  # (K,)
@@ -255,7 +272,13 @@ def _online_step(rec: OnlineRecognizer, state: OnlineState, x) -> tuple[OnlineSt
 
 
 online_step_jit = jax.jit(_online_step)
+"""`online_step` without the input checks, jitted: (recognizer, state, x_t (D,)) -> (OnlineState, OnlineFrame).
+
+For a live loop whose frames are already checked (one compiled step, called per frame).
+"""
 online_step_batch_jit = jax.jit(jax.vmap(_online_step, in_axes=(None, 0, 0)))
+"""`online_step_batch` without the input checks, jitted: (recognizer, states, X_t (S, D)) -> the S
+streams' (OnlineState, OnlineFrame)."""
 
 
 @jax.jit
@@ -274,7 +297,18 @@ def recognizer_bounds(rec: OnlineRecognizer):
 
 
 def init_online(recognizer: OnlineRecognizer, n_streams: int | None = None) -> OnlineState:
-    """The `OnlineState` before the first frame; with `n_streams` = S, S of them (leading axis S)."""
+    """The online recogniser's state before the first frame.
+
+    Args:
+        recognizer: From `online_recognizer`.
+        n_streams: None for one stream, or S >= 1 for S streams.
+
+    Returns:
+        `OnlineState`, with a leading axis S when `n_streams` is given.
+
+    Raises:
+        ValueError: Naming `recognizer` (not an OnlineRecognizer) or `n_streams` (not an integer >= 1).
+    """
     state = initial_online(check_recognizer(recognizer))
     if n_streams is None:
         return state
@@ -284,9 +318,24 @@ def init_online(recognizer: OnlineRecognizer, n_streams: int | None = None) -> O
 
 def online_step(recognizer: OnlineRecognizer, state: OnlineState, x_t: Float[ArrayLike, " D"]
                 ) -> tuple[OnlineState, OnlineFrame]:
-    """One frame x_t (D,) of one stream: (new state, `OnlineFrame`). Pure, jit-able, fixed cost (K·M
-    forward steps of the candidates, no branches). A movement's end is signalled by `ended`; its
-    frames are then `state.frames[:state.length]` (`OnlineStream` refines them by `recognize`)."""
+    """Advance the online recogniser by one frame of one stream (BMVC §5.4).
+
+    Pure, jit-able, fixed cost (K·M forward steps of the candidates, no branches). A movement's end
+    is signalled by `ended`; its frames are then `state.frames[:state.length]` (`OnlineStream`
+    refines them by `recognize`).
+
+    Args:
+        recognizer: From `online_recognizer`.
+        state: The `OnlineState` after the previous frames.
+        x_t: (D,) the new frame.
+
+    Returns:
+        (new `OnlineState`, `OnlineFrame`).
+
+    Raises:
+        ValueError: Naming `recognizer`, `state` (of another recogniser or of several streams) or
+            `x_t` (wrong shape, NaN/inf, too far from the models' means).
+    """
     rec = check_recognizer(recognizer)
     check_state(state, "state", initial_online(rec), OnlineState, None)
     x_t = check_frames(x_t, (rec.dim,), "x_t", None, None if is_traced(x_t) else recognizer_bounds(rec))
@@ -295,7 +344,19 @@ def online_step(recognizer: OnlineRecognizer, state: OnlineState, x_t: Float[Arr
 
 def online_step_batch(recognizer: OnlineRecognizer, states: OnlineState, X_t: Float[ArrayLike, "S D"]
                       ) -> tuple[OnlineState, OnlineFrame]:
-    """`online_step` for S streams at once (vmap): states with a leading S axis, X_t (S, D)."""
+    """Advance S streams by one frame each (a vmap of `online_step`).
+
+    Args:
+        recognizer: From `online_recognizer`.
+        states: The S streams' `OnlineState`, each field with a leading axis S.
+        X_t: (S, D) one new frame per stream.
+
+    Returns:
+        (new `OnlineState`, `OnlineFrame`), each field with a leading axis S.
+
+    Raises:
+        ValueError: Naming `recognizer`, `states` or `X_t`, as `online_step` does.
+    """
     rec = check_recognizer(recognizer)
     X_t = check_frames(X_t, (None, rec.dim), "X_t", None, None if is_traced(X_t) else recognizer_bounds(rec))
     check_state(states, "states", initial_online(rec), OnlineState, X_t.shape[0])
@@ -304,8 +365,20 @@ def online_step_batch(recognizer: OnlineRecognizer, states: OnlineState, X_t: Fl
 
 def online_scan(recognizer: OnlineRecognizer, stream: Float[ArrayLike, "T D"], state: OnlineState | None = None
                 ) -> tuple[OnlineState, OnlineFrame]:
-    """A recorded stream (T, D) through `online_step` by lax.scan, from `state` (default: the start):
-    (final state, `OnlineFrame` of every frame, leading axis T)."""
+    """Feed a recorded stream through `online_step` by lax.scan.
+
+    Args:
+        recognizer: From `online_recognizer`.
+        stream: (T, D) the frames.
+        state: The `OnlineState` to continue from; None: the start.
+
+    Returns:
+        (final `OnlineState`, `OnlineFrame` of every frame with a leading axis T).
+
+    Raises:
+        ValueError: Naming `recognizer`, `stream` (empty, wrong D, NaN/inf, too far from the
+            models' means) or `state`.
+    """
     rec = check_recognizer(recognizer)
     stream = check_frames(stream, (None, rec.dim), "stream", None, recognizer_bounds(rec), sequence=True)
     state = initial_online(rec) if state is None else check_state(state, "state", initial_online(rec),

@@ -1,4 +1,4 @@
-"""Movements found by the online recogniser (`phmm_jax.online`), refined by `recognize`: for a
+"""Movements found by the online recogniser (`online`), refined by `recognize`: for a
 recorded stream (`run_online`, by lax.scan) and for a live one (`OnlineStream`, frame by frame).
 BMVC 2008 §5.4, Humanoids 2008 §V.
 
@@ -28,13 +28,17 @@ __all__ = ["OnlineEvents", "OnlineStream", "run_online"]
 
 
 class OnlineEvents(NamedTuple):
-    """Detected movements, batch-first over E events.
+    """Movements detected by the online recogniser, batch-first over E events (BMVC §5.4).
 
-    found: (E,) bool, a class explains the movement (False: its length fits no class).
-    start, end: (E,) int32 its first and last frame. report: (E,) int32 the frame at which it was
-    reported (end + W). label: (E,) int32 class (-1 if not found). phi: (E, d) φ of that class by
-    `recognize` on the movement's frames (0 if not found). loglik: (E, K) log-likelihood of every class
-    at its refined φ (-inf for a class whose paths cannot have the movement's length).
+    Attributes:
+        found: (E,) bool, a class explains the movement (False: its length fits no class).
+        start: (E,) int32 its first frame.
+        end: (E,) int32 its last frame.
+        report: (E,) int32 the frame at which it was reported (end + W).
+        label: (E,) int32 class (-1 if not found).
+        phi: (E, d) φ of that class by `recognize` on the movement's frames (0 if not found).
+        loglik: (E, K) log-likelihood of every class at its refined φ (-inf for a class whose paths
+            cannot have the movement's length); never NaN.
     """
 
     found: Bool[np.ndarray, " E"]
@@ -85,9 +89,23 @@ def _concat(events: list[OnlineEvents], rec: OnlineRecognizer) -> OnlineEvents:
 
 
 def run_online(recognizer: OnlineRecognizer, stream: Float[ArrayLike, "T D"]) -> OnlineEvents:
-    """Recognise the movements of a recorded stream (T, D): `online_scan` (lax.scan over the frames),
-    then one `recognize` per detected movement on its frames. A movement still running when the stream
-    stops (or within W frames of its end) is not reported."""
+    """Recognise the movements of a recorded stream, with class and parameter (BMVC §5.4, Humanoids §V).
+
+    `online_scan` (lax.scan over the frames), then one `recognize` per detected movement on its
+    frames (padded to max_frames: one compiled shape). A movement still running when the stream
+    stops (or within W frames of its end) is not reported.
+
+    Args:
+        recognizer: From `online_recognizer`.
+        stream: (T, D) the frames.
+
+    Returns:
+        `OnlineEvents` over the E movements found (E = 0: correctly shaped empty arrays).
+
+    Raises:
+        ValueError: Naming `recognizer` (not an OnlineRecognizer) or `stream` (empty, wrong D,
+            NaN/inf, so far from the models' means that a log-density overflows).
+    """
     rec = check_recognizer(recognizer)
     _, trace = online_scan(rec, stream)
     stream = np.asarray(stream, float_dtype())
@@ -97,10 +115,24 @@ def run_online(recognizer: OnlineRecognizer, stream: Float[ArrayLike, "T D"]) ->
 
 
 class OnlineStream:
-    """A live stream: `push(x_t)` feeds one frame (D,) through the jitted `online_step` and returns the
-    `OnlineEvents` reported at this frame (E = 0, or 1 when a movement ended W frames ago; its
-    refinement by `recognize` runs inside this call). `state` and `last` (the latest `OnlineFrame`)
-    are public for live displays (provisional class and φ while the movement runs)."""
+    """A live stream for the online recogniser (BMVC §5.4, Humanoids §V), fed one frame at a time.
+
+    `push(x_t)` feeds one frame through the jitted `online_step` and returns the events reported at
+    this frame; a movement is reported W frames after its end, so the latency is exactly W frames
+    plus one `recognize` call. It reports the same events at the same frames as `run_online`.
+
+    Args:
+        recognizer: From `online_recognizer`.
+
+    Attributes:
+        recognizer: The `OnlineRecognizer`.
+        state: The `OnlineState` after the frames pushed so far (public for live displays).
+        last: The latest `OnlineFrame` (provisional class and φ while a movement runs), or None
+            before the first frame.
+
+    Raises:
+        ValueError: Naming `recognizer`, when it is not an OnlineRecognizer.
+    """
 
     def __init__(self, recognizer: OnlineRecognizer):
         self.recognizer = check_recognizer(recognizer)
@@ -109,6 +141,18 @@ class OnlineStream:
         self._bounds = recognizer_bounds(self.recognizer)
 
     def push(self, x_t: Float[ArrayLike, " D"]) -> OnlineEvents:
+        """Feed one frame; return the movements reported at it.
+
+        Args:
+            x_t: (D,) the new frame.
+
+        Returns:
+            `OnlineEvents` with E = 0, or E = 1 when a movement ended W frames ago (its refinement
+            by `recognize` runs inside this call).
+
+        Raises:
+            ValueError: Naming `x_t` (wrong shape, NaN/inf, too far from the models' means).
+        """
         rec = self.recognizer
         x_t = check_frames(x_t, (rec.dim,), "x_t", None, self._bounds)
         self.state, self.last = online_step_jit(rec, self.state, x_t)

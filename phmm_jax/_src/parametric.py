@@ -18,6 +18,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from lfd_common import as_array, check_int, check_real, float_dtype, pad_sequences, safe_log, solve_spd
@@ -37,27 +38,57 @@ from phmm_jax._src.options import FitOptions, check_options
 @partial(jax.tree_util.register_dataclass, data_fields=["local"], meta_fields=["grid_shape"])
 @dataclasses.dataclass(frozen=True)
 class PHMM:
-    """A parametric HMM: `local` is one HMM whose arrays carry a leading axis C over grid corners in
-    C order (the last parameter varies fastest); `grid_shape` = (g_1, ..., g_d)."""
+    """A parametric HMM (PHMM §III-B, BMVC §4): synchronised local HMMs at the corners of a grid.
+
+    The HMM λ^φ of a parameter φ in [0, 1]^d is their d-linear interpolation (`interpolate`,
+    eqs. 1, 4-6). Build one with `fit_phmm`. An immutable pytree; `grid_shape` is static.
+
+    Attributes:
+        local: One HMM whose arrays carry a leading axis C = Π g_k over the grid corners in C order
+            (the last parameter varies fastest); `grid_points(grid_shape)` gives their φ.
+        grid_shape: (g_1, ..., g_d), grid points per parameter.
+    """
 
     local: HMM
     grid_shape: tuple[int, ...]
 
     @property
     def n_params(self) -> int:
+        """d, the number of parameters."""
         return len(self.grid_shape)
 
     @property
     def config(self) -> HMMConfig:
+        """The `HMMConfig` every local HMM shares."""
         return self.local.config
 
     def corner(self, index: tuple[int, ...]) -> HMM:
+        """The local HMM at one grid corner.
+
+        Args:
+            index: (k_1, ..., k_d), the corner's grid index along each parameter.
+
+        Returns:
+            That corner's `HMM`.
+        """
         flat = int(np.ravel_multi_index(index, self.grid_shape))
         return jax.tree_util.tree_map(lambda a: a[flat], self.local)
 
 
 def grid_points(grid_shape: tuple[int, ...]) -> Float[np.ndarray, "C d"]:
-    """Parameter values φ (C, d) of the corners of a regular grid over [0, 1]^d, in C order."""
+    """Parameter values φ of the corners of a regular grid over [0, 1]^d, in C order.
+
+    The order of `fit_phmm`'s groups and of `PHMM.local`'s leading axis (PHMM §III-B).
+
+    Args:
+        grid_shape: (g_1, ..., g_d), a non-empty tuple (or list) of grid sizes >= 2.
+
+    Returns:
+        (C, d) numpy array, C = Π g_k, the last parameter varying fastest.
+
+    Raises:
+        ValueError: Naming `grid_shape`, when it is empty, not a tuple or list, or has a size < 2.
+    """
     grid_shape = check_grid_shape(grid_shape)
     axes = [np.linspace(0.0, 1.0, g) for g in grid_shape]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(grid_shape))
@@ -87,8 +118,20 @@ def corner_weights(grid_shape, phi):
 
 
 def interpolate(phmm: PHMM, phi: Float[Array, " d"]) -> HMM:
-    """The HMM λ^φ: d-linear interpolation of the local HMMs (means extrapolate; covariances and
-    duration distributions use φ clipped to [0, 1]^d)."""
+    """The HMM λ^φ: component-wise d-linear interpolation of the local HMMs (PHMM eqs. 1, 4-6).
+
+    φ lies in the grid cell around it and the 2^d corners of that cell are mixed. Outside [0, 1]^d
+    the means extrapolate linearly from the border cell, while covariances and duration
+    distributions use φ clipped to the box, so they stay valid. Pure jnp, differentiable in φ, no
+    input checks.
+
+    Args:
+        phmm: The PHMM.
+        phi: (d,) the parameter.
+
+    Returns:
+        The interpolated `HMM` (means (N, D), covariances (N, D, D), log_cont / log_exit (N, P)).
+    """
     weights = corner_weights(phmm.grid_shape, phi)
     weights_in = corner_weights(phmm.grid_shape, jnp.clip(phi, 0.0, 1.0))
     local = phmm.local
@@ -105,8 +148,21 @@ def interpolate(phmm: PHMM, phi: Float[Array, " d"]) -> HMM:
 
 
 @jax.jit
-def batch_phmm_log_likelihood(phmm: PHMM, X, lengths, phi):
-    """log p(x_b | λ^{φ_b}) (B,) for padded X (B, T, D), lengths (B,) and φ (B, d). Differentiable in φ."""
+def batch_phmm_log_likelihood(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"],
+                              phi: Float[Array, "B d"]) -> Float[Array, " B"]:
+    """Log-likelihoods of a checked, padded batch, one parameter per sequence (PHMM eq. 3's objective).
+
+    The jitted kernel of `phmm_log_likelihood`; no input checks. Differentiable in φ.
+
+    Args:
+        phmm: The PHMM.
+        X: (B, T, D) padded sequences in the compute dtype.
+        lengths: (B,) int32 frames per sequence.
+        phi: (B, d) each sequence's parameter.
+
+    Returns:
+        (B,) log p(x_b | λ^{φ_b}).
+    """
     hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)  # arrays with a leading B axis
     reachable = reachable_states(phmm.config, X.shape[1])
     log_b = stacked_log_density_columns(X, hmms.means, hmms.covariances, reachable)  # (T, N, B)
@@ -139,11 +195,25 @@ def _check_phi(phmm: PHMM, phi, batch: int):
 
 def phmm_log_likelihood(phmm: PHMM, X: Sequences, phi: Float[ArrayLike, "B d"] | Float[ArrayLike, " d"],
                         lengths: Lengths = None) -> Float[Array, " B"]:
-    """log p(x | λ^φ) per sequence (B,). φ: (d,) for all sequences or (B, d). Differentiable in φ
-    through `batch_phmm_log_likelihood`.
+    """Log-likelihood log p(x | λ^φ) of every sequence under the interpolated HMM (PHMM eq. 3).
 
-    φ may leave [0, 1]^d (the means extrapolate), but not so far that the log-likelihood or its
-    gradient overflows the compute dtype (φ = 1e30): that raises `ValueError` naming `phi`."""
+    Differentiable in φ through `batch_phmm_log_likelihood`.
+
+    Args:
+        phmm: The PHMM.
+        X: (B, T, D) padded with `lengths`, a (T, D) sequence or a list of (T_b, D) arrays.
+        phi: (d,) for all sequences, or (B, d) one per sequence. φ may leave [0, 1]^d (the means
+            extrapolate).
+        lengths: (B,) frames per sequence, or None (all T, or the list's lengths).
+
+    Returns:
+        (B,) log-likelihoods.
+
+    Raises:
+        ValueError: Naming the argument: `phmm` not a PHMM; `phi` of the wrong shape, or so far
+            outside [0, 1]^d that the log-likelihood or its gradient overflows the compute dtype
+            (φ = 1e30); `X` / `lengths` as in `log_likelihood`.
+    """
     check_type(phmm, "phmm", PHMM)
     X, lengths = pad_sequences(X, lengths, dim=phmm.local.dim)
     check_feasible(phmm.config, lengths)
@@ -155,16 +225,27 @@ def phmm_log_likelihood(phmm: PHMM, X: Sequences, phi: Float[ArrayLike, "B d"] |
 
 def fit_phmm(groups: Sequence[Sequences], grid_shape: tuple[int, ...], config: HMMConfig = HMMConfig(),
              *, options: FitOptions = FitOptions()) -> PHMM:
-    """Train a PHMM by the synchronised local training of PHMM §III-B1.
+    """Train a PHMM by the synchronised local training of PHMM §III-B1 (BMVC §4.1).
 
-    groups: one entry per grid corner in C order (`grid_points(grid_shape)` gives their φ), each a
-        list of (T_b, D) sequences or a (B, T, D) array, all of the same action.
     1. A global HMM is fitted by EM on all sequences (`options.max_iter`). 2. Every local HMM starts
     from it and runs EM on its own sequences (`options.local_max_iter`, default `max_iter`) with the
     means fixed after the first iteration (eq. 2), so corresponding states of all local HMMs model
     the same part of the movement. The local EMs run as one vmap.
-    grid_shape: a non-empty tuple (or list) of grid sizes >= 2. Raises `ValueError` naming the
-    argument for wrong types and, as `fit_hmm` does, instead of returning a NaN or singular model.
+
+    Args:
+        groups: One entry per grid corner in C order (`grid_points(grid_shape)` gives their φ),
+            each a list of (T_b, D) sequences or a (B, T, D) array, all of the same action.
+        grid_shape: (g_1, ..., g_d), a non-empty tuple (or list) of grid sizes >= 2.
+        config: The local HMMs' structure.
+        options: `FitOptions` (max_iter, local_max_iter, tol, reg_covar, duration_pseudocount).
+
+    Returns:
+        The `PHMM`.
+
+    Raises:
+        ValueError: Naming the argument for wrong types (`groups`, `grid_shape`, `config`,
+            `options`), a group count other than Π grid_shape, an empty group (`groups[k]`), and,
+            as `fit_hmm` does, instead of returning a NaN or singular model.
     """
     options = check_options(options)
     grid_shape = check_grid_shape(grid_shape)
@@ -206,8 +287,13 @@ def _local_em_step(hmm: HMM, X, lengths, weights, reg_covar, duration_pseudocoun
 
 
 class Recognition(NamedTuple):
-    """label: (B,) index of the best PHMM. phi: (B, K, d) the best parameter per sequence and PHMM.
-    loglik: (B, K) log-likelihood at that parameter."""
+    """The result of `recognize` (PHMM eq. 3): class and parameter of every sequence.
+
+    Attributes:
+        label: (B,) index of the best PHMM.
+        phi: (B, K, d) the best parameter per sequence and PHMM.
+        loglik: (B, K) log-likelihood at that parameter.
+    """
 
     label: Int[Array, " B"]
     phi: Float[Array, "B K d"]
@@ -256,20 +342,38 @@ _PROBE_DISTANCES = (0.03, 0.075)  # how far across it the probes lie (at least)
 
 
 def _default_lattice(grid_shape: tuple[int, ...]) -> tuple[int, ...]:
-    """Start-lattice points per parameter, chosen on validation data (README): 5 for 2 grid points."""
+    """Start-lattice points per parameter, chosen on validation data: 5 for 2 grid points."""
     return tuple(5 if g == 2 else 6 * (g - 1) + 1 for g in grid_shape)  # else 6 intervals per cell
 
 
 @partial(jax.jit, static_argnames=("n_steps", "lattice_points", "face_steps"))
-def search_parameters(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points: int, face_steps: int):
-    """φ* for every sequence (PHMM eq. 3): the best point of a lattice (`start_lattice`) under the
-    full model, `n_steps` damped, projected quasi-Newton steps from there (exact Hessian at the start,
-    BFGS updates after, a step kept only where it raises the likelihood), then probes across the
-    nearest grid lines and `face_steps` more steps. Returns (φ (B, d), loglik (B,)).
+def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"], epsilon: float | Array,
+                      n_steps: int, lattice_points: int | tuple[int, ...], face_steps: int
+                      ) -> tuple[Float[Array, "B d"], Float[Array, " B"]]:
+    """The parameter search of one PHMM on a checked, padded batch: the jitted kernel of `recognize`.
+
+    φ* = argmax over [−ε, 1+ε]^d of log p(x | λ^φ) for every sequence (PHMM eq. 3): the best point
+    of a lattice over [0, 1]^d under the full model, `n_steps` damped, projected quasi-Newton steps
+    from there (exact Hessian at the start, BFGS updates after, a step kept only where it raises
+    the likelihood), then probes across the nearest grid lines and `face_steps` more steps. No
+    input checks.
 
     Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
     sequence's gradient, and one reverse pass of that gradient along coordinate k gives row k of
-    every sequence's d x d Hessian at once."""
+    every sequence's d x d Hessian at once.
+
+    Args:
+        phmm: The PHMM.
+        X: (B, T, D) padded sequences in the compute dtype.
+        lengths: (B,) int32 frames per sequence.
+        epsilon: ε >= 0, how far the search may leave [0, 1]^d (traced).
+        n_steps: Quasi-Newton steps from the lattice (static).
+        lattice_points: Lattice points per parameter, one count for all or one each (static).
+        face_steps: Steps after the probes across the grid lines (static; 0: no probes).
+
+    Returns:
+        (φ (B, d), log-likelihood at φ (B,)).
+    """
     d = phmm.n_params
     lower, upper = -epsilon, 1.0 + epsilon
     lattice = start_lattice(d, lattice_points)  # (M, d)
@@ -342,29 +446,47 @@ def _search_shard(phmm: PHMM, epsilon, X, lengths, *, n_steps: int, lattice_poin
 
 
 def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
-              n_steps: int = 6, lattice_points: int | None = None, face_steps: int = 3, *, mesh=None) -> Recognition:
-    """Classify sequences and estimate their parameters (PHMM eq. 3, BMVC §4.2).
+              n_steps: int = 6, lattice_points: int | None = None, face_steps: int = 3, *,
+              mesh: Mesh | None = None) -> Recognition:
+    """Classify sequences and estimate their parameters (PHMM eq. 3, §III-B2; BMVC §4.2).
 
-    For each PHMM k: φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ), from the best point of a
-    lattice over [0, 1]^d (`lattice_points` per parameter; None: 5 for a grid of 2 points, 6 intervals
-    per grid cell for more) by `n_steps` damped, projected quasi-Newton steps (exact d x d Hessian
-    by automatic differentiation at the start, BFGS updates after; a step is kept only where it
-    raises the likelihood, so the result is never worse than the lattice), then probes across the
-    nearest grid lines (the faces of [0, 1]^d, where interpolated covariances and durations stop and
-    the means go on, and the lines between grid cells, where the d-linear interpolation changes cell:
-    kinks, often with a second maximum just across), and `face_steps` more steps (0: no probe).
-    The label is the k with the highest log-likelihood at its φ_k. Batched over sequences.
-    phmms: a PHMM or a sequence of PHMMs (same D and number of parameters).
-    Defaults: a lattice point scores all sequences under one model (cheap), a step needs one model
-    per sequence (dear); how close the defaults come to a dense scan plus a long refinement is
-    measured by `experiments.bench.bench_hmm` (`recognition_at_max_rate`).
-    Raises `ValueError` naming the argument for anything else: n_steps < 1, face_steps < 0,
-    lattice_points < 1, a negative epsilon, models that are not PHMMs, and data (or an epsilon) so
-    far from a model's means that the search would overflow the compute dtype.
-    mesh: a `jax.sharding.Mesh` (or None: one device). The sequences are split over its devices
-    (`lfd_common.map_batch`: padded to the mesh, the padding cut off), each device searches φ for its
-    own (every sequence's search is independent); the result equals the one-device result. With
-    several processes each passes its own sequences and gets its own rows.
+    For each PHMM k, φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ); the label is the k with the
+    highest log-likelihood at its φ_k. Batched over sequences.
+
+    Args:
+        phmms: A PHMM or a sequence of K PHMMs (same D and number of parameters d).
+        X: (B, T, D) padded with `lengths`, a (T, D) sequence or a list of (T_b, D) arrays.
+        lengths: (B,) frames per sequence, or None (all T, or the list's lengths).
+        epsilon: ε >= 0, how far the search may leave [0, 1]^d.
+        n_steps: Damped, projected quasi-Newton steps from the best lattice point, >= 1.
+        lattice_points: Start-lattice points per parameter, >= 1; None: 5 for a grid of 2 points,
+            6 intervals per grid cell for more.
+        face_steps: Steps after the probes across the nearest grid lines, >= 0 (0: no probe).
+        mesh: A `jax.sharding.Mesh` (or None: one device). The sequences are split over its
+            devices (padded to the mesh, the padding cut off), each device searches φ for its own
+            (every sequence's search is independent); the result equals the one-device result.
+            With several processes each passes its own sequences and gets its own rows.
+
+    Returns:
+        `Recognition`: label (B,), phi (B, K, d), loglik (B, K).
+
+    Raises:
+        ValueError: Naming the argument: n_steps < 1, face_steps < 0, lattice_points < 1, a
+            negative epsilon, models that are not PHMMs or differ in D or d (`phmms[k]`), `X` /
+            `lengths` as in `log_likelihood`, and data (or an epsilon) so far from a model's means
+            that the search would overflow the compute dtype.
+
+    Notes:
+        The search starts from the best point of a lattice over [0, 1]^d and takes `n_steps`
+        damped, projected quasi-Newton steps (exact d x d Hessian by automatic differentiation at
+        the start, BFGS updates after; a step is kept only where it raises the likelihood, so the
+        result is never worse than the lattice). It then probes across the nearest grid lines (the
+        faces of [0, 1]^d, where interpolated covariances and durations stop and the means go on,
+        and the lines between grid cells, where the d-linear interpolation changes cell: kinks,
+        often with a second maximum just across) and takes `face_steps` more steps. A lattice
+        point scores all sequences under one model (cheap), a step needs one model per sequence
+        (dear); how close the defaults come to a dense scan plus a long refinement is measured by
+        `experiments.bench.bench_hmm` (`recognition_at_max_rate`).
     """
     mesh = check_mesh(mesh)
     if isinstance(phmms, PHMM):

@@ -45,21 +45,29 @@ from jaxtyping import Array, ArrayLike, Float
 from lfd_common import as_array, check_real, float_dtype
 
 MARKER_ORDER = ("sternum", "shoulder", "elbow", "wrist", "index_knuckle", "index_tip", "thumb_tip")
+"""The order of the 7 markers `retarget` reads (the papers' marker set, Humanoids 2008 §I)."""
 _SHOULDER, _ELBOW, _KNUCKLE, _TIP, _THUMB = 1, 2, 4, 5, 6
 # Columns v1 (down), v2 (forward), v3 (right) of the robot's fixed shoulder frame, world x right,
 # y forward, z up.
 DEFAULT_BASE_FRAME = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+"""(3, 3) the robot's fixed shoulder frame {v_i} (Humanoids 2008 Fig. 5): v1 down, v2 forward, v3 right."""
 
 
 class ArmAngles(NamedTuple):
-    """Robot joint angles (radians) and the points they were solved for, in robot scale (metres,
-    relative to the robot's shoulder, world axes).
+    """The result of `retarget` (Humanoids 2008 §IV-B): robot joint angles and the points solved for.
 
-    shoulder (..., T, 3): Cardan angles (phi, theta, psi); elbow (..., T): flexion delta = pi - gamma;
-    wrist (..., T): twist alpha. hand (..., T, 3) and elbow_point (..., T, 3): the scaled human hand and
-    elbow. robot_elbow (..., T, 3): the robot's elbow q' = a u1. scale (...,): robot / human arm length.
-    singular (..., T) bool: a frame whose arm plane or wrist twist the markers leave undefined (see
-    `solve_arm`); its angles come from the documented fallback, never NaN.
+    Angles in radians; points in robot scale (metres, relative to the robot's shoulder, world axes).
+
+    Attributes:
+        shoulder: (..., T, 3) Cardan angles (phi, theta, psi) (eqs. 16-18).
+        elbow: (..., T) flexion delta = pi - gamma (eq. 10).
+        wrist: (..., T) twist alpha (eq. 23).
+        hand: (..., T, 3) the scaled human hand.
+        elbow_point: (..., T, 3) the scaled human elbow.
+        robot_elbow: (..., T, 3) the robot's elbow q' = a u1.
+        scale: (...,) robot / human arm length.
+        singular: (..., T) bool, a frame whose arm plane or wrist twist the markers leave undefined
+            (see `solve_arm`); its angles come from the documented fallback, never NaN.
     """
 
     shoulder: jax.Array
@@ -73,8 +81,15 @@ class ArmAngles(NamedTuple):
 
 
 class ArmSolution(NamedTuple):
-    """`solve_arm`'s result: shoulder (..., 3) Cardan angles, elbow (...,) flexion, wrist (...,) twist,
-    robot_elbow (..., 3), singular (...,) bool (a fallback direction was used)."""
+    """The result of `solve_arm` (Humanoids 2008 §IV-B, eqs. 10-24).
+
+    Attributes:
+        shoulder: (..., 3) Cardan angles (phi, theta, psi).
+        elbow: (...,) flexion delta = pi - gamma.
+        wrist: (...,) twist alpha.
+        robot_elbow: (..., 3) the robot's elbow q' = a u1.
+        singular: (...,) bool, a fallback direction was used.
+    """
 
     shoulder: jax.Array
     elbow: jax.Array
@@ -107,14 +122,27 @@ def _off_axis(v, axis):
 def solve_arm(q: Float[Array, "*batch 3"], r: Float[Array, "*batch 3"], o: Float[Array, "*batch 3"],
               upper_arm: float, forearm: float, base_frame: Float[ArrayLike, "3 3"] = DEFAULT_BASE_FRAME
               ) -> ArmSolution:
-    """Joint angles for elbow q, hand r and finger->thumb direction o (..., 3), all relative to the
-    shoulder and already in robot scale. Pure jnp, finite values and gradients everywhere.
+    """Robot arm joint angles for given elbow, hand and thumb direction (Humanoids 2008 §IV-B, eqs. 10-24).
 
-    Singular poses, where the markers leave a direction undefined, take a fallback and are flagged
-    in `singular`: the hand at the shoulder (w1 of eq. 13 undefined: the base frame's v1, the arm
-    hanging); the elbow on the shoulder-hand line, a straight arm (w2 of eq. 15 undefined: the base
-    frame's v2, forward, off w1, or v3 where w1 is along v2); o along the forearm (twist of eq. 23
-    undefined: alpha = 0)."""
+    Pure jnp, no input checks, finite values and gradients everywhere. Singular poses, where the
+    markers leave a direction undefined, take a fallback and are flagged in `singular`: the hand at
+    the shoulder (w1 of eq. 13 undefined: the base frame's v1, the arm hanging); the elbow on the
+    shoulder-hand line, a straight arm (w2 of eq. 15 undefined: the base frame's v2, forward, off
+    w1, or v3 where w1 is along v2); o along the forearm (twist of eq. 23 undefined: alpha = 0).
+
+    Args:
+        q: (..., 3) the elbow, relative to the shoulder, in robot scale.
+        r: (..., 3) the hand, relative to the shoulder, in robot scale.
+        o: (..., 3) the finger->thumb direction.
+        upper_arm: The robot's a (shoulder-elbow), metres.
+        forearm: The robot's b (elbow-grasp point), metres.
+        base_frame: (3, 3) columns v1, v2, v3 of the robot's fixed shoulder frame in world
+            coordinates.
+
+    Returns:
+        `ArmSolution`: shoulder (..., 3), elbow (...,), wrist (...,), robot_elbow (..., 3),
+        singular (...,).
+    """
     a, b = upper_arm, forearm
     base = jnp.asarray(base_frame, jnp.result_type(q))
     reach = a + b
@@ -168,14 +196,31 @@ def retarget(markers: Float[ArrayLike, "*batch T 7 3"] | Float[ArrayLike, "*batc
              forearm: float = 0.145, shoulder: Float[ArrayLike, "*batch 3"] | None = None,
              scale: Float[ArrayLike, "*batch"] | None = None,
              base_frame: Float[ArrayLike, "3 3"] = DEFAULT_BASE_FRAME) -> ArmAngles:
-    """Robot joint angles for a marker trajectory (..., T, 7, 3) or (..., T, 21) in `MARKER_ORDER`.
+    """Map a human arm movement to the joint angles of a HOAP-3-like robot arm (Humanoids 2008 §IV-B).
 
-    upper_arm, forearm: the robot's a (shoulder-elbow) and b (elbow-grasp point), metres.
-    shoulder: the reference shoulder position (3,) or (..., 3) — the papers use the mean shoulder
-        position over the training movements; None uses each frame's shoulder marker.
-    scale: robot / human arm length (scalar or (...,)); None uses (a + b) / the median over frames of
-        the human |shoulder-elbow| + |elbow-hand|.
-    base_frame: (3, 3) columns v1, v2, v3 of the robot's fixed shoulder frame in world coordinates.
+    The elbow and hand (mean of index knuckle, index tip and thumb tip) are taken relative to the
+    shoulder, scaled to the robot's arm length and solved by `solve_arm` (eqs. 10-24).
+
+    Args:
+        markers: (..., T, 7, 3) or (..., T, 21) marker positions in `MARKER_ORDER`, metres.
+        upper_arm: The robot's a (shoulder-elbow), metres.
+        forearm: The robot's b (elbow-grasp point), metres.
+        shoulder: The reference shoulder position (3,) or (..., 3) — the papers use the mean
+            shoulder position over the training movements (§IV-A); None uses each frame's shoulder
+            marker.
+        scale: Robot / human arm length (scalar or (...,)); None uses (a + b) / the median over
+            frames of the human |shoulder-elbow| + |elbow-hand|.
+        base_frame: (3, 3) columns v1, v2, v3 of the robot's fixed shoulder frame in world
+            coordinates.
+
+    Returns:
+        `ArmAngles`: shoulder (..., T, 3), elbow and wrist (..., T), the points solved for, scale
+        (...,) and singular (..., T).
+
+    Raises:
+        ValueError: Naming the argument: `markers` of the wrong shape, NaN/inf, or without an arm
+            length to scale by (shoulder, elbow and hand coincide: pass `scale`); `upper_arm` /
+            `forearm` not > 0; `base_frame` not a rotation matrix; `shoulder` or `scale` malformed.
     """
     markers = as_array(markers, "markers", ndim=range(2, 8))
     if markers.shape[-1] == 3 * len(MARKER_ORDER) and markers.shape[-2:] != (len(MARKER_ORDER), 3):

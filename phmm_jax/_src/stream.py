@@ -1,13 +1,13 @@
 """Streaming forward pass of one explicit-duration HMM: frames arrive one at a time (e.g. the 3-D hand
 position relative to the face from a tracker) and the forward state is updated per frame (BMVC 2008
 §5.4 "Online Recognition and Synthesis", Humanoids 2008 §V). The online recogniser of
-`phmm_jax.online` runs these steps for every class and φ candidate.
+`online` runs these steps for every class and φ candidate.
 
 Shapes: D features, N states, P pseudo-states per state, S streams, T frames.
 
-The pseudo-state chains are those of `phmm_jax.inference` (its `initial_message` and `predict`, and
+The pseudo-state chains are those of `inference` (its `initial_message` and `predict`, and
 the end weight of its `end_message`: exit from the last state); emissions use the affine whitening of
-`phmm_jax.emissions`, factored once per model rather than per frame.
+`emissions`, factored once per model rather than per frame.
     StreamState(log_alpha (N, P), n_frames (), log_prefix (), loglik ())
     init_stream(hmm, n_streams=None)        the state before any frame ((S, ...) with n_streams)
     stream_step(hmm, state, x_t (D,))       one frame: O(N·P); pure, jit-able
@@ -17,7 +17,7 @@ After t frames, log_alpha and loglik equal (to round-off) `messages(hmm, X[:t]).
 `log_likelihood(hmm, X[:t])`: loglik is the *finished* log-likelihood ("the sequence ends here",
 exit from the last state, included); log_prefix = log p(x_{0:t}) over the paths still running.
 Unnormalised, like the batch pass, so that both agree to round-off; a live stream restarts per
-movement (`phmm_jax.online`), so the messages stay in range.
+movement (`online`), so the messages stay in range.
 
 Input is checked at the boundary (`ValueError` naming the argument: wrong feature dimension, NaN/inf
 frames, empty sequences, a state of another model); inside the caller's jit (tracers) only shapes are.
@@ -39,7 +39,7 @@ from phmm_jax._src.model import HMM
 
 __all__ = ["StreamState", "init_stream", "stream_forward", "stream_step", "stream_step_batch"]
 
-# Column layout of `phmm_jax.inference` inside: the batch axis B (candidates, or 1) last.
+# Column layout of `inference` inside: the batch axis B (candidates, or 1) last.
 
 class _Emitter(NamedTuple):
     """Gaussian emissions of B models factored once: affine whitening [W | -Wμ] (B, N, D, D+1) and
@@ -79,11 +79,15 @@ def summaries(c: Chain, log_alpha):
 class StreamState(NamedTuple):
     """The forward state of one stream after t = n_frames frames (leading S axis for S streams).
 
-    log_alpha: (N, P) log p(x_{0:t-1}, z_{t-1} = (i, j)); -inf before the first frame.
-    n_frames: () int32, t.
-    log_prefix: () log p(x_{0:t-1}) over the paths still running (0 before the first frame).
-    loglik: () log p(x_{0:t-1}, the sequence ends here): the batch `log_likelihood` of the t frames
-        (-inf while no path can have reached the end).
+    BMVC §5.4. After t frames, log_alpha and loglik equal (to round-off) the batch forward pass of
+    the first t frames (`messages`, `log_likelihood`).
+
+    Attributes:
+        log_alpha: (N, P) log p(x_{0:t-1}, z_{t-1} = (i, j)); -inf before the first frame.
+        n_frames: () int32, t.
+        log_prefix: () log p(x_{0:t-1}) over the paths still running (0 before the first frame).
+        loglik: () log p(x_{0:t-1}, the sequence ends here): the batch `log_likelihood` of the t
+            frames (-inf while no path can have reached the end).
     """
 
     log_alpha: Float[Array, "N P"]
@@ -169,7 +173,18 @@ def check_state(state, name: str, template: NamedTuple, cls: type, batch: int | 
 
 
 def init_stream(hmm: HMM, n_streams: int | None = None) -> StreamState:
-    """The `StreamState` before the first frame; with `n_streams` = S, S of them (leading axis S)."""
+    """The forward state of a stream before its first frame (BMVC §5.4).
+
+    Args:
+        hmm: One model (log_cont (N, P)).
+        n_streams: None for one stream, or S >= 1 for S streams.
+
+    Returns:
+        `StreamState`, with a leading axis S when `n_streams` is given.
+
+    Raises:
+        ValueError: Naming `hmm` (not one HMM) or `n_streams` (not an integer >= 1).
+    """
     hmm = _check_hmm(hmm)
     state = _empty_state(hmm.config, float_dtype())
     if n_streams is None:
@@ -179,8 +194,23 @@ def init_stream(hmm: HMM, n_streams: int | None = None) -> StreamState:
 
 
 def stream_step(hmm: HMM, state: StreamState, x_t: Float[ArrayLike, " D"]) -> StreamState:
-    """The `StreamState` after one more frame x_t (D,). O(N·P) per frame (the banded pseudo-state
-    chain); pure and jit-able. Checked at the boundary: `ValueError` naming `hmm`, `state` or `x_t`."""
+    """Advance one stream's forward state by one frame (BMVC §5.4, Humanoids §V).
+
+    O(N·P) per frame (the banded pseudo-state chain); pure and jit-able (inside the caller's jit
+    only shapes are checked).
+
+    Args:
+        hmm: One model (log_cont (N, P)).
+        state: The `StreamState` after the previous frames (from `init_stream` or a previous step).
+        x_t: (D,) the new frame.
+
+    Returns:
+        The `StreamState` after x_t.
+
+    Raises:
+        ValueError: Naming `hmm` (not one HMM), `state` (of another model or of several streams)
+            or `x_t` (wrong shape, NaN/inf, so far from the means that a log-density overflows).
+    """
     hmm = _check_hmm(hmm)
     check_state(state, "state", _empty_state(hmm.config, float_dtype()), StreamState, None)
     x_t = check_frames(x_t, (hmm.dim,), "x_t", hmm, None if is_traced(x_t) else model_bounds(hmm))
@@ -188,7 +218,19 @@ def stream_step(hmm: HMM, state: StreamState, x_t: Float[ArrayLike, " D"]) -> St
 
 
 def stream_step_batch(hmm: HMM, states: StreamState, X_t: Float[ArrayLike, "S D"]) -> StreamState:
-    """`stream_step` for S streams under one HMM at once (vmap): states with a leading S axis, X_t (S, D)."""
+    """Advance S streams under one HMM by one frame each (a vmap of `stream_step`).
+
+    Args:
+        hmm: One model (log_cont (N, P)).
+        states: The S streams' `StreamState`, each field with a leading axis S.
+        X_t: (S, D) one new frame per stream.
+
+    Returns:
+        The S streams' `StreamState` after X_t.
+
+    Raises:
+        ValueError: Naming `hmm`, `states` or `X_t`, as `stream_step` does.
+    """
     hmm = _check_hmm(hmm)
     X_t = check_frames(X_t, (None, hmm.dim), "X_t", hmm, None if is_traced(X_t) else model_bounds(hmm))
     check_state(states, "states", _empty_state(hmm.config, float_dtype()), StreamState, X_t.shape[0])
@@ -196,9 +238,23 @@ def stream_step_batch(hmm: HMM, states: StreamState, X_t: Float[ArrayLike, "S D"
 
 
 def stream_forward(hmm: HMM, X: Float[ArrayLike, "T D"], state: StreamState | None = None) -> StreamState:
-    """Feed a recorded sequence X (T, D) one frame at a time (lax.scan), from `state` (default: the
-    start): the `StreamState` after every frame, each field with a leading T axis (the last row is
-    the final state, from which a later call may continue)."""
+    """Feed a recorded sequence one frame at a time (lax.scan) and keep the state after every frame.
+
+    Equals the batch forward pass at every prefix (loglik: the sequence ends there, the
+    `log_likelihood` of the prefix).
+
+    Args:
+        hmm: One model (log_cont (N, P)).
+        X: (T, D) the frames.
+        state: The `StreamState` to continue from; None: the start.
+
+    Returns:
+        `StreamState` after every frame, each field with a leading axis T (the last row is the
+        final state, from which a later call may continue).
+
+    Raises:
+        ValueError: Naming `hmm`, `X` (empty, wrong D, NaN/inf, too far from the means) or `state`.
+    """
     hmm = _check_hmm(hmm)
     X = check_frames(X, (None, hmm.dim), "X", hmm, model_bounds(hmm), sequence=True)
     if state is None:

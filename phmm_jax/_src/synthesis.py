@@ -19,9 +19,20 @@ from phmm_jax._src.model import expected_durations
 from phmm_jax._src.parametric import PHMM, interpolate
 
 
-def hermite_spline(knot_times, knots, query_times):
-    """C¹ cubic Hermite interpolation through `knots` (K, D) at increasing `knot_times` (K,), with
-    Catmull-Rom (finite-difference) tangents, evaluated at `query_times` (M,) -> (M, D)."""
+def hermite_spline(knot_times: Float[Array, " K"], knots: Float[Array, "K D"],
+                   query_times: Float[Array, " M"]) -> Float[Array, "M D"]:
+    """C¹ cubic Hermite interpolation with Catmull-Rom (finite-difference) tangents.
+
+    The spline `synthesize` joins the state means with (PHMM §III-B2). Pure jnp, no input checks.
+
+    Args:
+        knot_times: (K,) increasing times, K >= 2.
+        knots: (K, D) the points at those times.
+        query_times: (M,) where to evaluate.
+
+    Returns:
+        (M, D) the spline at `query_times`.
+    """
     dt = jnp.diff(knot_times)
     slopes = jnp.diff(knots, axis=0) / dt[:, None]
     inner = (slopes[:-1] * dt[1:, None] + slopes[1:] * dt[:-1, None]) / (dt[:-1] + dt[1:])[:, None]
@@ -50,12 +61,23 @@ def _synthesize(phmm: PHMM, phi, length: int):
 
 def synthesize(phmm: PHMM, phi: Float[ArrayLike, " d"] | Float[ArrayLike, "M d"], length: int = 100
                ) -> Float[Array, "length D"] | Float[Array, "M length D"]:
-    """The mean movement (length, D) for parameter φ (d,), or a batch (M, length, D) for φ (M, d).
+    """Synthesise the mean movement of parameter φ (PHMM §III-B2, §IV-A; BMVC §4.2).
 
-    The interpolated state means are placed at the centres of the expected state durations and
-    joined by a C¹ spline sampled at `length` equally spaced times from the first centre to the last
-    (a one-state model gives its mean at every sample). φ may leave [0, 1]^d (the means
-    extrapolate), but not so far that they overflow the compute dtype (`ValueError` naming `phi`).
+    The state means of λ^φ are placed at the centres of the expected state durations and joined by
+    a C¹ spline sampled at `length` equally spaced times from the first centre to the last (a
+    one-state model gives its mean at every sample).
+
+    Args:
+        phmm: The PHMM.
+        phi: (d,) one parameter, or (M, d) several. φ may leave [0, 1]^d (the means extrapolate).
+        length: Samples of the movement, >= 2.
+
+    Returns:
+        (length, D) for φ (d,), or (M, length, D) for φ (M, d).
+
+    Raises:
+        ValueError: Naming `phmm` (not a PHMM), `length` (< 2) or `phi` (wrong shape, or so far
+            outside [0, 1]^d that the means overflow the compute dtype).
     """
     check_type(phmm, "phmm", PHMM)
     length = check_int(length, "length", min_value=2)
@@ -73,8 +95,19 @@ def synthesize(phmm: PHMM, phi: Float[ArrayLike, " d"] | Float[ArrayLike, "M d"]
     return jax.vmap(lambda p: _synthesize(phmm, p, length))(phi)
 
 
-def multilinear_map(corner_targets, phi):
-    """Target point of parameter φ (d,) for a grid of corner targets (g_1, ..., g_d, P) (eqs. 4–6)."""
+def multilinear_map(corner_targets: Float[Array, "*grid P"], phi: Float[Array, " d"]) -> Float[Array, " P"]:
+    """The target point of parameter φ: d-linear interpolation of the corners' targets (PHMM eqs. 4–6).
+
+    Pure jnp, differentiable in φ (linear extrapolation from the border cell outside [0, 1]^d), no
+    input checks.
+
+    Args:
+        corner_targets: (g_1, ..., g_d, P) the target point of every grid corner.
+        phi: (d,) the parameter.
+
+    Returns:
+        (P,) the interpolated target point.
+    """
     grid_shape = corner_targets.shape[:-1]
     grid = jnp.asarray(grid_shape)
     scaled = phi * (grid - 1)
@@ -104,13 +137,26 @@ def _invert_multilinear(corner_targets, targets, phi0, n_iter: int):
 
 def target_to_phi(corner_targets: Float[ArrayLike, "*grid P"], targets: Float[ArrayLike, "M P"] | Float[ArrayLike, " P"],
                   n_iter: int = 10) -> Float[Array, "M d"] | Float[Array, " d"]:
-    """Interpolation parameters φ (M, d) whose interpolated target is closest to each target (M, P).
+    """Interpolation parameters φ whose interpolated target is closest to each target (PHMM §IV-A).
 
-    corner_targets: (g_1, ..., g_d, P) the target point of every grid corner (e.g. the table-top
-    positions the local HMMs were trained on). For a rectangular, axis-aligned box this is eqs. 7–9
-    (the projection on each edge of the box, divided by its length: eqs. 7–9 as printed omit that
-    division). For a warped grid, a least-squares inverse of the d-linear map (Gauss–Newton from the
-    projection). φ may leave [0, 1] for targets outside the grid.
+    For a rectangular, axis-aligned box this is eqs. 7–9 (the projection on each edge of the box,
+    divided by its length: eqs. 7–9 as printed omit that division). For a warped grid, a
+    least-squares inverse of the d-linear map (Gauss–Newton from the projection). φ may leave
+    [0, 1] for targets outside the grid.
+
+    Args:
+        corner_targets: (g_1, ..., g_d, P) the target point of every grid corner (e.g. the
+            table-top positions the local HMMs were trained on), 1 <= d <= 6.
+        targets: (M, P) target points, or one (P,).
+        n_iter: Gauss–Newton iterations, >= 0 (0: the projection alone).
+
+    Returns:
+        (M, d), or (d,) for one target.
+
+    Raises:
+        ValueError: Naming `corner_targets` (wrong rank, a grid axis with fewer than 2 corners, a
+            degenerate grid whose outer corners coincide), `targets` (wrong shape, NaN/inf) or
+            `n_iter`.
     """
     corner_targets = as_array(corner_targets, "corner_targets", ndim=range(2, 8))
     d = corner_targets.ndim - 1

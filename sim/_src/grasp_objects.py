@@ -1,5 +1,7 @@
-"""The six grasp classes of the GRASP/MAP papers, the object each one holds, and the human-to-robot
-class mappings (IROS 2008 Fig. 2; MAP 2009 Fig. 2).
+"""The six grasp classes of GRASP and MAP, the object each one holds, and the human-to-robot class mappings.
+
+The classes are Cutkosky's numbers as the papers use them; the mappings are GRASP (IROS 2008) Fig. 2
+and MAP (2009) Fig. 2.
 
 One source for everything that grasps: the human reference grasps, the rendered view database and the
 robot grasp execution all take their objects from here.
@@ -30,10 +32,17 @@ VOLAR_GRASPS: frozenset[int] = frozenset({1, 2})
 
 @dataclass(frozen=True)
 class GraspObject:
-    """A rigid object on the table.
+    """A rigid object on the table, the one a grasp class holds (`GRASP_OBJECTS`).
 
-    `geom_type` and `size` are MuJoCo's (cylinder: radius, half-height; sphere: radius; box: half
-    sizes), in metres. The object's frame is at its centre; it rests on the table with its z axis up.
+    The object's frame is at its centre; it rests on the table with its z axis up.
+
+    Attributes:
+        name: what it stands for ("large cylinder (bottle)", ...).
+        geom_type: MuJoCo's geom type: "cylinder", "sphere" or "box".
+        size: MuJoCo's size, in metres (cylinder: radius, half-height; sphere: radius; box: half
+            sizes).
+        mass_kg: its mass.
+        friction: MuJoCo's sliding, torsional and rolling friction.
     """
 
     name: str
@@ -48,7 +57,16 @@ class GraspObject:
         return self.size[0] if self.geom_type == "sphere" else self.size[-1]
 
     def geom_xml(self, name: str = "object", rgba: str = "0 0 0 1", extra: str = "") -> str:
-        """One MJCF `<geom>` element for this object (black by default, as in GRASP §III-B)."""
+        """One MJCF `<geom>` element for this object.
+
+        Args:
+            name: the geom's name.
+            rgba: its colour as MJCF text (black by default, as in GRASP §III-B).
+            extra: more MJCF attributes, as text.
+
+        Returns:
+            The `<geom .../>` element.
+        """
         size = " ".join(f"{s:.4f}" for s in self.size)
         friction = " ".join(f"{f:g}" for f in self.friction)
         return (f'<geom name="{name}" type="{self.geom_type}" size="{size}" mass="{self.mass_kg:g}" '
@@ -84,12 +102,35 @@ GRASP_MAPPINGS: dict[str, dict[str, dict[int, str]]] = {
 
 
 def check_grasp_class(grasp: int, name: str = "grasp") -> int:
-    """`grasp` as an int if it is one of `GRASP_CLASSES`, else a ValueError naming `name`."""
+    """Check that `grasp` is one of the six grasp classes.
+
+    Args:
+        grasp: a Cutkosky number.
+        name: the argument name that an error names.
+
+    Returns:
+        `grasp` as an int.
+
+    Raises:
+        ValueError: `grasp` is not one of `GRASP_CLASSES`, naming `name`.
+    """
     return int(check_choice(grasp, name, GRASP_CLASSES))
 
 
 def robot_grasp_for(grasp: int, hand: str, mapping: str = "map2009") -> str:
-    """The robot preshape that human grasp class `grasp` maps to on `hand` under `mapping`."""
+    """The robot preshape that a human grasp class maps to (MAP Fig. 2, GRASP Fig. 2).
+
+    Args:
+        grasp: the human grasp class (`GRASP_CLASSES`).
+        hand: "barrett" or "karlsruhe".
+        mapping: "map2009" (MAP Fig. 2) or "iros2008" (GRASP Fig. 2, Barrett only).
+
+    Returns:
+        The robot preshape's name, one of `ROBOT_GRASPS[hand]`.
+
+    Raises:
+        ValueError: an unknown grasp class, hand or mapping, or a hand the mapping does not have.
+    """
     mapping = check_choice(mapping, "mapping", tuple(GRASP_MAPPINGS))
     hand = check_choice(hand, "hand", tuple(GRASP_MAPPINGS[mapping]))
     return GRASP_MAPPINGS[mapping][hand][check_grasp_class(grasp)]

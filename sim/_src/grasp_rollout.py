@@ -1,8 +1,8 @@
-"""Run a batch of grasp trials on one of three physics backends, behind one function.
+"""Grasp trials (MAP §III, §IV-A) run in batches on one of three physics backends, behind one function.
 
 `rollout_grasps(hand, params, object_start, backend=...)` steps B trials of one hand for
-`grasp_strategy.n_control_steps()` control steps, with `grasp_strategy.controller_step` (jitted JAX)
-between control steps, and returns `GraspOutcomes`. Backends:
+`n_control_steps()` control steps, with `controller_step` (jitted JAX) between control steps, and
+returns `GraspOutcomes`. Backends:
 
 * `native`: MuJoCo 4's `mujoco.batch.Batch` (the C engine on a thread pool; bit-identical to a serial
   `mj_step` loop). The controller reads `sensordata` (B, S) and writes the bound `ctrl` (B, U) between
@@ -15,10 +15,9 @@ between control steps, and returns `GraspOutcomes`. Backends:
   device and is differentiable. One compiled program per hand and batch size (`_mjx_chunk`: every
   object is in each hand's scene, so all grasps share it; its inputs are committed to the device so
   that the second call does not compile it again; `experiments/bench/bench_mjx.py` measures its
-  compile and run times). Each physics step is
-  `sim.rollout.mjx_step`, whose LAPACK calls cannot deadlock XLA:CPU's thread pool (`mjx.step`'s
-  can: README "Known problems"). MJX keeps the
-  `robot_hands.MJX_MAX_CONTACTS` deepest candidate contacts per world; a rollout in which that many
+  compile and run times). Each physics step is `sim.scenes.mjx_step`, whose LAPACK calls cannot
+  deadlock XLA:CPU's thread pool (`mjx.step`'s can: see the known problems in the docs). MJX keeps
+  the `MJX_MAX_CONTACTS` (32) deepest candidate contacts per world; a rollout in which that many
   penetrate at once raises an error.
 * `mjx-warp`: the same scan with `impl="warp"` (NVIDIA GPU, `warp-lang` and `mujoco-warp` installed).
   `naconmax` (contacts across all worlds) is sized from the batch; an overflow raises an error rather
@@ -35,15 +34,17 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+from collections.abc import Callable
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
-from jax.sharding import NamedSharding, PartitionSpec
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from mujoco import mjx
 from mujoco.batch import Batch
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, check_choice, check_int
 from lfd_common import batch_spec, check_mesh, pad_rows
@@ -62,14 +63,22 @@ CONTACTS_PER_WORLD = 96        # mjx-warp naconmax per world
 
 
 class GraspOutcomes(NamedTuple):
-    """Per-trial results (numpy), B rows, L links (palm first).
+    """Per-trial results of `rollout_grasps` (numpy), B rows, L links (palm first).
 
-    lifted (B,) bool: object at least `LIFT_SUCCESS_M` above its start at the end of the hold (or of
-    the horizon); lift_m (B,); object_end (B, 3) world; palm_first (B,) bool and first_link (B,) int
-    (-1: no contact) of the first touch; n_corrections (B,); contacts (B, L, 7): found flag, position
-    (3) and normal (3, out of the object) per link in the object frame at the end of closing;
-    slip_mm (B,): object displacement in the palm frame during the 1 s hold (NaN if the hold was not
-    reached); phase (B,) final controller phase; qpos (B, nq) the final state (for rendering).
+    Attributes:
+        lifted: (B,) bool: the object at least `LIFT_SUCCESS_M` (8 cm) above its start at the end of
+            the hold (or of the horizon).
+        lift_m: (B,) how far it was raised (m).
+        object_end: (B, 3) its final position (world).
+        palm_first: (B,) bool: the first touch was on the palm.
+        first_link: (B,) int: the link of the first touch (-1: no contact).
+        n_corrections: (B,) tactile corrections made (MAP §III).
+        contacts: (B, L, 7) found flag, position (3) and normal (3, out of the object) per link in the
+            object frame at the end of closing: the input of the virtual fingers (MAP §IV-A).
+        slip_mm: (B,) object displacement in the palm frame during the hold (NaN if the hold was not
+            reached).
+        phase: (B,) final controller phase.
+        qpos: (B, nq) the final state (for rendering).
     """
 
     lifted: np.ndarray
@@ -85,7 +94,11 @@ class GraspOutcomes(NamedTuple):
 
 
 def warp_status() -> str:
-    """'' if mjx-warp can run here, else why not."""
+    """Whether the `mjx-warp` backend can run on this machine.
+
+    Returns:
+        "" if it can, else why not (a Python package missing, or no CUDA GPU visible to JAX).
+    """
     missing = [m for m in ("warp", "mujoco_warp") if importlib.util.find_spec(m) is None]
     if missing:
         return f"python packages {', '.join(missing)} not installed (extra `gpu`)"
@@ -95,7 +108,17 @@ def warp_status() -> str:
 
 
 def resolve_backend(backend: str) -> str:
-    """`backend` with "auto" resolved; ValueError if unknown or not available on this machine."""
+    """The backend `rollout_grasps` runs for `backend`, with "auto" resolved.
+
+    Args:
+        backend: "auto", "native", "mjx-jax" or "mjx-warp".
+
+    Returns:
+        `backend`, or for "auto" "mjx-warp" where a CUDA GPU and Warp are present, else "native".
+
+    Raises:
+        ValueError: an unknown backend, or "mjx-warp" where it is not available (`warp_status`).
+    """
     backend = check_choice(backend, "backend", BACKENDS)
     if backend == "auto":
         return "mjx-warp" if not warp_status() else "native"
@@ -106,8 +129,19 @@ def resolve_backend(backend: str) -> str:
 
 def initial_qpos(model: mujoco.MjModel, hand: str, layout: SceneLayout, params: TrialParams,
                  object_start: np.ndarray) -> np.ndarray:
-    """(B, nq) starting positions: wrist at `params.start` with `params.wrist` angles, fingers in the open
-    preshape, the active object at `object_start`, the others parked."""
+    """The starting positions of B trials in the grasp scene.
+
+    Args:
+        model: the grasp scene of `hand` (`grasp_model`).
+        hand: "barrett" or "karlsruhe".
+        layout: the scene's layout.
+        params: the plan of the trials (`plan_trials`).
+        object_start: (B, 3) where each trial's object stands (world).
+
+    Returns:
+        (B, nq) qpos: the wrist at `params.start` with `params.wrist` angles, the fingers in the open
+            preshape, the active object at `object_start`, the others parked.
+    """
     b = params.goal.shape[0]
     shapes, inverse = np.unique(np.asarray(params.open_), axis=0, return_inverse=True)
     qpos = np.stack([hand_joint_qpos(model, hand, s) for s in shapes])[inverse.reshape(-1)]
@@ -122,7 +156,17 @@ def initial_qpos(model: mujoco.MjModel, hand: str, layout: SceneLayout, params: 
 
 
 def object_gravcomp(model: mujoco.MjModel, layout: SceneLayout, obj: np.ndarray) -> np.ndarray:
-    """(B, nbody) body_gravcomp: 1 for the hand and for parked objects, 0 for each trial's active object."""
+    """Per-trial gravity compensation of the grasp scene's bodies.
+
+    Args:
+        model: the grasp scene (`grasp_model`).
+        layout: its layout.
+        obj: (B,) int: each trial's active object (index into `GRASP_CLASSES`).
+
+    Returns:
+        (B, nbody) body_gravcomp: 1 for the hand and for parked objects, 0 for each trial's active
+            object.
+    """
     grav = np.tile(model.body_gravcomp, (len(obj), 1))
     grav[:, layout.object_body] = 1.0
     grav[np.arange(len(obj)), layout.object_body[np.asarray(obj)]] = 0.0
@@ -130,13 +174,32 @@ def object_gravcomp(model: mujoco.MjModel, layout: SceneLayout, obj: np.ndarray)
 
 
 @functools.lru_cache(maxsize=None)
-def grasp_scene(hand: str):
+def grasp_scene(hand: str) -> tuple[mujoco.MjModel, SceneLayout]:
+    """The grasp scene of `hand`, compiled once per process (`grasp_model`, cached).
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+
+    Returns:
+        (model, layout), shared by every caller: do not modify the model.
+
+    Raises:
+        ValueError: an unknown hand.
+    """
     model, layout = grasp_model(hand)
     return model, layout
 
 
 @functools.lru_cache(maxsize=None)
-def jitted_controller(hand: str):
+def jitted_controller(hand: str) -> Callable:
+    """`controller_step` jitted for the sensor layout of `hand`'s grasp scene, once per process.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+
+    Returns:
+        A function (state, sensordata, params) -> (state, ctrl).
+    """
     _, layout = grasp_scene(hand)
     return jax.jit(functools.partial(controller_step, layout=layout))
 
@@ -161,7 +224,20 @@ def _check_inputs(hand: str, params: TrialParams, object_start) -> tuple[TrialPa
 
 
 def trial_outcomes(state: ControllerState, qpos: np.ndarray, layout: SceneLayout, object_start: np.ndarray,
-              obj: np.ndarray) -> GraspOutcomes:
+                   obj: np.ndarray) -> GraspOutcomes:
+    """The outcomes of B trials from the controller's final state and the final positions.
+
+    Args:
+        state: the controller state after the last control step.
+        qpos: (B, nq) the final positions.
+        layout: the grasp scene's layout.
+        object_start: (B, 3) where each object started (world).
+        obj: (B,) int: each trial's active object (index into `GRASP_CLASSES`).
+
+    Returns:
+        The `GraspOutcomes`: an object counts as lifted when it is `LIFT_SUCCESS_M` above its start
+            at the end of the hold (or of the horizon, for a trial that did not finish).
+    """
     state = jax.tree.map(np.asarray, state)
     adr = layout.object_qpos[obj]
     object_now = np.take_along_axis(qpos, adr[:, None] + np.arange(3), axis=1)
@@ -174,14 +250,27 @@ def trial_outcomes(state: ControllerState, qpos: np.ndarray, layout: SceneLayout
         slip_mm=np.where(done, 1e3 * state.slip_m, np.nan), phase=state.phase, qpos=qpos)
 
 
-def rollout_grasps(hand: str, params: TrialParams, object_start, backend: str = "auto",
-                   nthread: int = 0, *, mesh=None) -> GraspOutcomes:
-    """Run B grasp trials of `hand` (params from `grasp_strategy.plan_trials`) on `backend`.
+def rollout_grasps(hand: str, params: TrialParams, object_start: ArrayLike, backend: str = "auto",
+                   nthread: int = 0, *, mesh: Mesh | None = None) -> GraspOutcomes:
+    """Run B grasp trials of `hand` on a physics backend (MAP §III strategy, MAP §IV-A evaluation).
 
-    object_start (B, 3): where each trial's object really stands. nthread: `native` threads (0: all).
-    mesh: a `jax.sharding.Mesh` of this process's devices (MJX backends; None: one device): the worlds
-    are padded to the mesh with copies of trial 0 and split over its devices, the outcomes cut back
-    to B; they equal the one-device outcomes. ValueError naming `mesh` with the native backend.
+    Args:
+        hand: "barrett" or "karlsruhe".
+        params: the plan of the trials (`plan_trials`).
+        object_start: (B, 3) where each trial's object really stands.
+        backend: "auto", "native", "mjx-jax" or "mjx-warp" (see the module docstring).
+        nthread: `native` threads (0: all).
+        mesh: a `jax.sharding.Mesh` of this process's devices (MJX backends; None: one device): the
+            worlds are padded to the mesh with copies of trial 0 and split over its devices, the
+            outcomes cut back to B; they equal the one-device outcomes.
+
+    Returns:
+        The `GraspOutcomes` of the B trials.
+
+    Raises:
+        ValueError: bad input naming the argument (`params.<field>` for a plan of the wrong shape or
+            with non-finite values), an unavailable backend, or a `mesh` with the native backend.
+        RuntimeError: an MJX contact buffer overflowed (contacts would have been dropped).
     """
     mesh = check_mesh(mesh)
     hand = hand_spec(hand).name
@@ -201,8 +290,8 @@ def rollout_grasps(hand: str, params: TrialParams, object_start, backend: str = 
     return GraspOutcomes(*(a[:b] for a in out))
 
 
-def peak_touch(substeps, layout: SceneLayout):
-    """The controller's sensor readings (B, S) from a control period's substeps (B, K, S), numpy or jax.
+def peak_touch(substeps: np.ndarray | jax.Array, layout: SceneLayout) -> np.ndarray | jax.Array:
+    """The controller's sensor readings from the substeps of one control period (numpy or jax).
 
     The last substep's readings, except: each touch sensor at its peak over the K substeps, and each
     (link, object) contact sensor (found, position, normal: the contact c of MAP §III's correction)
@@ -210,6 +299,13 @@ def peak_touch(substeps, layout: SceneLayout):
     contact felt in any substep comes with its own position. A light object pushed by the hand touches
     it intermittently: one sample per control period misses most touches, and a peak `found` beside
     the last substep's position would report a contact without a position.
+
+    Args:
+        substeps: (B, K, S) sensordata of the K substeps, numpy or jax.
+        layout: where the touch and contact sensors are (`SceneLayout`).
+
+    Returns:
+        (B, S) readings, of `substeps`' array type.
     """
     xp = np if isinstance(substeps, np.ndarray) else jnp
     k = substeps.shape[1]
@@ -226,9 +322,19 @@ def peak_touch(substeps, layout: SceneLayout):
     return substeps[:, -1].at[:, idx].set(values)
 
 
-def native_start(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int):
-    """The `native` backend's worlds at the start of the trials: (model, layout, batch, controller,
-    controller state, first sensor readings (B, S), ctrl view (B, U)); `_rollout_native` steps them."""
+def native_start(hand: str, params: TrialParams, object_start: np.ndarray, nthread: int) -> tuple:
+    """The `native` backend's worlds at the start of the trials, for a caller that steps them itself.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        params: the plan of the B trials (checked by the caller).
+        object_start: (B, 3) where each trial's object stands.
+        nthread: `mujoco.batch.Batch` threads (0: all).
+
+    Returns:
+        (model, layout, batch, controller, controller state, first sensor readings (B, S), ctrl view
+            (B, U)): the native rollout steps exactly these.
+    """
     model, layout = grasp_scene(hand)
     b = params.goal.shape[0]
     batch = Batch(model, nsim=b, nthread=nthread)
@@ -257,12 +363,20 @@ CHUNK = 20  # control steps per compiled scan (see `_mjx_chunk`)
 
 
 def first_readings(n_worlds: int, model: mujoco.MjModel) -> np.ndarray:
-    """(B, S) sensor readings the controller's first step sees on every backend: none (zeros).
+    """The sensor readings the controller's first step sees on every backend: none (zeros).
 
     Every trial starts with the hand in the air, clear of the object, so there is nothing to feel, and
     the first control step only starts the approach (it reads no pose). Starting from zeros instead of
     a forward pass keeps the MJX backends at one compiled program per hand (a forward pass is a
-    second program about as large as a step)."""
+    second program about as large as a step).
+
+    Args:
+        n_worlds: B, the number of trials.
+        model: the grasp scene.
+
+    Returns:
+        (B, S) zeros, S = `model.nsensordata`.
+    """
     return np.zeros((n_worlds, model.nsensordata))
 
 
@@ -272,7 +386,7 @@ def _mjx_chunk(hand: str, impl: str):
 
     chunk(mjx model, gravcomp (B, nbody), data, sensors, state, params) -> (data, sensors, state,
     deepest) after `CHUNK` control steps: a `lax.scan` over control steps (controller inside), each a
-    `lax.scan` over the `SUBSTEPS` physics steps of one vmapped step (`sim.rollout.mjx_step` on
+    `lax.scan` over the `SUBSTEPS` physics steps of one vmapped step (`mjx_step` on
     MJX-JAX, whose LAPACK calls cannot deadlock XLA:CPU; `mjx.step` on Warp). sensors (B, S): the
     controller's input (`peak_touch` of the substeps' sensordata); deepest (B,) int: the most
     penetrating contacts a world had at once (`_penetrating`). The horizon runs as up to
@@ -358,5 +472,6 @@ def _rollout_mjx(hand: str, params: TrialParams, object_start: np.ndarray, impl:
                            "were dropped. Raise CONTACTS_PER_WORLD.")
     if deepest >= MJX_MAX_CONTACTS:
         raise RuntimeError(f"mjx-jax: {deepest} contacts penetrated at once in one world, the most MJX keeps "
-                           "(robot_hands.MJX_MAX_CONTACTS); deeper ones may have been dropped. Raise it.")
+                           "(MJX_MAX_CONTACTS in sim/_src/robot_hands.py); deeper ones may have been dropped. "
+                           "Raise it.")
     return trial_outcomes(state, np.asarray(qpos_end, np.float64), layout, object_start, params.obj)

@@ -1,11 +1,11 @@
-"""Grasp strategy (MAP §III): robot preshape and hand pose from the human grasp, and the grasp controller.
+"""The grasp strategy of MAP §III: robot preshape and hand pose from the human grasp, and the grasp controller.
 
 Planning (numpy, at the boundary): `plan_trials` turns (hand, human grasp class, perturbation, seed)
 into `TrialParams`, one row per trial. The robot imitates the human hand's orientation relative to the
-object (`sim.human_grasps.hand_pose_in_world`): its palm normal is the human's (the approach direction),
-its wrap axis the human's thumb axis. Volar grasps (Large and Small Diameter) approach from the top if
-the human palm is about parallel to the table (normal within 30 degrees of vertical), else from the
-side, horizontally, towards the estimated object centroid. Non-volar grasps approach open-loop to a
+object (`sim.hands.hand_pose_in_world`): its palm normal is the human's (the approach direction), its
+wrap axis the human's thumb axis. Volar grasps (Large and Small Diameter) approach from the top if the
+human palm is about parallel to the table (normal within 30 degrees of vertical), else from the side,
+horizontally, towards the estimated object centroid. Non-volar grasps approach open-loop to a
 predefined distance: where the closing fingertips reach the object (`contact_depth`), but with the
 palm at most `PALM_GAP_M` from the object's surface; from the top, no closer than where the open
 fingertip sites (the centres of the capsule ends) are `TIP_CLEARANCE_M` above the table: long fingers
@@ -15,7 +15,7 @@ object (clearing the table by the whole capsule radius made the Barrett's cube a
 Control (JAX, jittable, vectorised over trials B): `controller_step(state, sensordata, params, layout)`
 -> (state, ctrl) is one pure function, a state machine with phases APPROACH, RETRACT, CLOSE, LIFT, HOLD,
 DONE. A link touches the object when its touch sensor exceeds `TOUCH_THRESHOLD_N` and its contact
-sensor with the object fires (peaks over the control period, see `sim.grasp_rollout.peak_touch`).
+sensor with the object fires (peaks over the control period, see `sim.grasping.peak_touch`).
 Volar grasps stop at the first touch; if it is not on the palm and tactile correction is on, the hand
 retracts straight back and replans with p_new = alpha c + (1 - alpha) p_old, alpha <- alpha^2 (c: the
 mean position of the touching links' contacts), at most `MAX_CORRECTIONS` times; every approach first
@@ -23,18 +23,20 @@ moves sideways onto the line through the goal, then along it, slowing down near 
 approaches move slowly all the way: their open fingers reach far ahead of the palm, and the hand starts
 with the fingertips `START_CLEARANCE_M` from the object, so under a position error a fingertip may
 strike the object from the first step on; at full speed that strike topples a thin cylinder before
-the correction can act (issue 21, `experiments.validation.tactile_correction`). Then the fingers
-close, the hand lifts 10 cm and holds for 1 s. No Python branching on data: every transition is a `where`.
+the correction can act (`experiments.validation.tactile_correction` logs it). Then the fingers close,
+the hand lifts 10 cm and holds for 1 s. No Python branching on data: every transition is a `where`.
 """
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from lfd_common import as_array, check_choice, check_real, quat_to_matrix
@@ -64,19 +66,32 @@ TIP_CLEARANCE_M = 0.005        # ... and, from the top, with the open fingertip 
 
 
 def n_control_steps() -> int:
-    """Control steps of one trial (HORIZON_S / CONTROL_DT_S)."""
+    """The number of control steps of one trial.
+
+    Returns:
+        `HORIZON_S / CONTROL_DT_S`, rounded: enough for two slow tactile corrections (MAP §III).
+    """
     return int(round(HORIZON_S / CONTROL_DT_S))
 
 
 class TrialParams(NamedTuple):
-    """Per-trial parameters, B rows (numpy or jax arrays). D hand DoF.
+    """The plan of B grasp trials (MAP §III), one row per trial (numpy or jax arrays); D hand DoF.
 
-    goal (B, 3): estimated object centroid (the planned goal, world); approach (B, 3): unit approach
-    direction (the hand's z axis); wrist (B, 3): wrist hinge angles (Rz Rx Ry, rad); start (B, 3):
-    where the palm centre starts; standoff (B,): palm-to-goal distance at which an open-loop approach
-    stops (0 for volar: approach until contact); volar (B,) and tactile (B,) bool; open_, closed (B, D)
-    hand targets; obj (B,) int: index of the active object in `GRASP_CLASSES`; hold_s (B,): how long
-    the lifted object is held (s; `HOLD_S` in the study).
+    Made by `plan_trials`; read by `controller_step` and `rollout_grasps`.
+
+    Attributes:
+        goal: (B, 3) the estimated object centroid (the planned goal, world).
+        approach: (B, 3) unit approach direction (the hand's z axis).
+        wrist: (B, 3) wrist hinge angles (Rz Rx Ry, rad).
+        start: (B, 3) where the palm centre starts.
+        standoff: (B,) palm-to-goal distance at which an open-loop approach stops (0 for volar grasps:
+            approach until contact).
+        volar: (B,) bool: a volar grasp (the palm is expected to touch first).
+        tactile: (B,) bool: tactile correction on.
+        open_: (B, D) open hand targets.
+        closed: (B, D) closed hand targets.
+        obj: (B,) int: index of the active object in `GRASP_CLASSES`.
+        hold_s: (B,) how long the lifted object is held (s; `HOLD_S` in the study).
     """
 
     goal: np.ndarray
@@ -93,15 +108,25 @@ class TrialParams(NamedTuple):
 
 
 class ControllerState(NamedTuple):
-    """Controller state, B rows. L links.
+    """The grasp controller's state for B trials (jax arrays); L hand links.
 
-    phase (B,) int; t (B,) seconds in the phase; cmd (B, 3) commanded palm position; goal (B, 3)
-    current goal; alpha (B,); n_corr (B,) corrections made; retract_to (B, 3); touched (B,) bool: a
-    first contact happened; palm_first (B,) bool: it was on the palm; first_link (B,) int link of the
-    first contact (-1 none); grasp_contacts (B, L, 7): found, position (3), normal (3) in the object
-    frame at the end of closing; lift_z (B,) palm height when lifting began; hold_obj (B, 3): the
-    object's centre in the palm frame when holding began; slip_m (B,): its displacement at the end of
-    the hold; end_obj (B, 3): the object's position (world) at the end of the hold.
+    Attributes:
+        phase: (B,) int: APPROACH, RETRACT, CLOSE, LIFT, HOLD or DONE.
+        t: (B,) seconds in the phase.
+        cmd: (B, 3) commanded palm position.
+        goal: (B, 3) current goal.
+        alpha: (B,) the weight of the next tactile correction (MAP §III).
+        n_corr: (B,) corrections made.
+        retract_to: (B, 3) where a retract ends.
+        touched: (B,) bool: a first contact happened.
+        palm_first: (B,) bool: it was on the palm.
+        first_link: (B,) int: link of the first contact (-1: none).
+        grasp_contacts: (B, L, 7) found, position (3), normal (3) in the object frame at the end of
+            closing.
+        lift_z: (B,) palm height when lifting began.
+        hold_obj: (B, 3) the object's centre in the palm frame when holding began.
+        slip_m: (B,) its displacement at the end of the hold.
+        end_obj: (B, 3) the object's position (world) at the end of the hold.
     """
 
     phase: jax.Array
@@ -122,7 +147,15 @@ class ControllerState(NamedTuple):
 
 
 def initial_state(params: TrialParams, n_links: int) -> ControllerState:
-    """The controller state at the start of a trial (APPROACH, at `params.start`)."""
+    """The controller state at the start of the trials: APPROACH, the palm commanded at `params.start`.
+
+    Args:
+        params: the plan of B trials (`plan_trials`).
+        n_links: L, the number of hand links (palm first) whose contacts are recorded.
+
+    Returns:
+        The `ControllerState` of B rows, alpha at `ALPHA0`, no contact yet.
+    """
     b = params.goal.shape[0]
     start = jnp.asarray(params.start, jnp.float32)
     return ControllerState(
@@ -159,9 +192,20 @@ def read_sensors(sensordata: jax.Array, obj: jax.Array, layout: SceneLayout):
 
 def controller_step(state: ControllerState, sensordata: jax.Array, params: TrialParams,
                     layout: SceneLayout) -> tuple[ControllerState, jax.Array]:
-    """One control step for B trials: (state, sensordata (B, S)) -> (new state, ctrl (B, U)).
+    """One control step of the MAP §III grasp strategy for B trials (pure, jittable).
 
-    ctrl = [palm position command (3), wrist hinge angles (3), hand DoF targets (D)].
+    The state machine of the module docstring: approach (sideways onto the line through the goal, then
+    along it), stop at the first touch, tactile correction by retract and replan, close, lift, hold.
+
+    Args:
+        state: the controller state (`initial_state`, then this function's output).
+        sensordata: (B, S) sensor readings of the grasp scene (`peak_touch` of the control period).
+        params: the plan of the B trials (`plan_trials`).
+        layout: where the sensors are in `sensordata` (the scene's layout, from `grasp_model`).
+
+    Returns:
+        (new state, ctrl (B, U)), ctrl = [palm position command (3), wrist hinge angles (3), hand DoF
+            targets (D)].
     """
     dt = CONTROL_DT_S
     touch, contacts, obj_pos, obj_rot, palm_pos, palm_rot = read_sensors(sensordata, params.obj, layout)
@@ -306,7 +350,15 @@ def contact_depth(hand: str, robot_grasp: str, half_width: float) -> float:
 
 
 def object_extent(grasp: int, direction: np.ndarray) -> np.ndarray:
-    """Half-extent (m) of grasp `grasp`'s object along unit directions (..., 3) (object upright) -> (...)."""
+    """Half-extent of a grasp object along unit directions, the object upright.
+
+    Args:
+        grasp: the grasp class whose object (`GRASP_OBJECTS`) is measured.
+        direction: (..., 3) unit directions.
+
+    Returns:
+        (...) half-extents in metres, the support function of the cylinder, sphere or box.
+    """
     obj = GRASP_OBJECTS[grasp]
     d = np.abs(np.asarray(direction, float))
     if obj.geom_type == "sphere":
@@ -323,24 +375,79 @@ def _seeded_normal(seeds: np.ndarray, stream: int, shape: tuple[int, ...]) -> np
     return np.asarray(jax.vmap(lambda k: jax.random.normal(k, shape))(keys), np.float64)
 
 
-def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: str = "map2009",
-                pos_noise_m: float = 0.003, rot_noise_deg: float = 2.0,
-                hold_s: float = HOLD_S, objects=None) -> tuple[TrialParams, np.ndarray]:
-    """Plan B trials of `hand`, one per row of the equal-length arrays below.
+MAPPINGS: tuple[str, ...] = ("map2009", "iros2008")
 
-    grasps (B,): human grasp classes; offsets (B, 2): true object position minus the estimate, on the
-    table (m, |offset| <= 0.2); tilts_deg (B,): orientation error of the estimate (deg, |.| <= 90): the
-    planned hand pose is rotated by it about a horizontal axis through the object centre (for a side
-    approach the approach tilts downwards); tactile (B,) bool: tactile correction on; seeds (B,) int:
-    hand-pose noise (position `pos_noise_m`, rotation `rot_noise_deg`, Gaussian per axis); hold_s:
-    how long the lifted object is held (s, [CONTROL_DT_S, HOLD_S]; shorter only to make a test cheaper);
-    objects (B,): the grasp class whose object (`GRASP_OBJECTS`) each trial handles (default: its own
-    grasp's): the preshape and the approach come from the grasp class, the stand-off, the stop and the
-    centre height from the handled object's geometry (MAP §III's "predefined distance" is from the
-    object). Returns (params, object start positions (B, 3)).
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """How `plan_trials` plans: the grasp mapping, the hand-pose noise and the hold time.
+
+    Fields are checked when the object is made. Change one with `dataclasses.replace(options, ...)`.
+
+    Attributes:
+        mapping: the human-to-robot grasp mapping, "map2009" (MAP Fig. 2) or "iros2008" (GRASP
+            Fig. 2, Barrett hand only).
+        pos_noise_m: hand-position noise, Gaussian per axis (m, in [0, 0.05]).
+        rot_noise_deg: hand-rotation noise, Gaussian per axis (degrees, in [0, 20]).
+        hold_s: how long the lifted object is held (s, in [CONTROL_DT_S, HOLD_S]; shorter only to make
+            a test cheaper).
+
+    Raises:
+        ValueError: a field out of its range or of the wrong type, naming the field.
     """
+
+    mapping: str = "map2009"
+    pos_noise_m: float = 0.003
+    rot_noise_deg: float = 2.0
+    hold_s: float = HOLD_S
+
+    def __post_init__(self):
+        object.__setattr__(self, "mapping", check_choice(self.mapping, "mapping", MAPPINGS))
+        object.__setattr__(self, "pos_noise_m", check_real(self.pos_noise_m, "pos_noise_m", min_value=0.0,
+                                                           max_value=0.05))
+        object.__setattr__(self, "rot_noise_deg", check_real(self.rot_noise_deg, "rot_noise_deg", min_value=0.0,
+                                                             max_value=20.0))
+        object.__setattr__(self, "hold_s", check_real(self.hold_s, "hold_s", min_value=CONTROL_DT_S,
+                                                      max_value=HOLD_S))
+
+
+def plan_trials(hand: str, grasps: ArrayLike, offsets: ArrayLike, tilts_deg: ArrayLike, tactile: ArrayLike,
+                seeds: ArrayLike, objects: ArrayLike | None = None,
+                options: PlanOptions = PlanOptions()) -> tuple[TrialParams, np.ndarray]:
+    """Plan B grasp trials of `hand` with the MAP §III grasp strategy, one per row of the arrays.
+
+    The preshape and the approach come from the grasp class (the mapping table and the human hand's
+    orientation); the stand-off, the stop and the centre height from the handled object's geometry
+    (MAP §III's "predefined distance" is from the object). The plan is made in the object's frame,
+    the object upright at the origin.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        grasps: (B,) human grasp classes (`GRASP_CLASSES`).
+        offsets: (B, 2) true object position minus the estimate, on the table (m, |offset| <= 0.2).
+        tilts_deg: (B,) orientation error of the estimate (degrees, |.| <= 90): the planned hand pose
+            is rotated by it about a horizontal axis through the object centre (for a side approach
+            the approach tilts downwards).
+        tactile: (B,) bool: tactile correction on.
+        seeds: (B,) int >= 0: each trial's hand-pose noise (`options.pos_noise_m`,
+            `options.rot_noise_deg`) is a deterministic function of its own seed.
+        objects: (B,) the grasp class whose object (`GRASP_OBJECTS`) each trial handles; None: its
+            own grasp's.
+        options: the mapping, the noise levels and the hold time (`PlanOptions`).
+
+    Returns:
+        A tuple (params, object_start) of the `TrialParams` and the (B, 3) positions where each trial's object
+            really stands (the offset applied, at its resting height).
+
+    Raises:
+        ValueError: an unknown hand, grasp class or object class, an array of the wrong shape or out
+            of range, or `options` not a `PlanOptions`, naming the argument.
+    """
+    if not isinstance(options, PlanOptions):
+        raise ValueError(f"options: expected a PlanOptions, got {type(options).__name__}")
     spec = hand_spec(hand)
-    check_choice(mapping, "mapping", ("map2009", "iros2008"))
+    mapping, pos_noise_m, rot_noise_deg, hold_s = (options.mapping, options.pos_noise_m, options.rot_noise_deg,
+                                                   options.hold_s)
     grasps = as_array(grasps, "grasps", ndim=1, dtype=np.int64)
     b = grasps.shape[0]
     objects = grasps if objects is None else as_array(objects, "objects", shape=(b,), dtype=np.int64)
@@ -351,9 +458,6 @@ def plan_trials(hand: str, grasps, offsets, tilts_deg, tactile, seeds, mapping: 
     tilts = as_array(tilts_deg, "tilts_deg", shape=(b,), min_value=-90.0, max_value=90.0)
     tactile = as_array(tactile, "tactile", shape=(b,), dtype=bool)
     seeds = as_array(seeds, "seeds", shape=(b,), dtype=np.int64, min_value=0)
-    pos_noise_m = check_real(pos_noise_m, "pos_noise_m", min_value=0.0, max_value=0.05)
-    rot_noise_deg = check_real(rot_noise_deg, "rot_noise_deg", min_value=0.0, max_value=20.0)
-    hold_s = check_real(hold_s, "hold_s", min_value=CONTROL_DT_S, max_value=HOLD_S)
 
     # per grasp class (6 rows, `GRASP_CLASSES` order), then gathered per trial
     frames = [human_hand_frame(g) for g in GRASP_CLASSES]

@@ -1,27 +1,23 @@
-"""The six human reference grasps (Cutkosky 1, 2, 4, 9, 10, 12 of GRASP/MAP), as data, with their
+"""The six human reference grasps (Cutkosky 1, 2, 4, 9, 10, 12 of GRASP and MAP), as data, with their
 scene and their hand-object contacts.
 
-Public API
-----------
-* `GRASP_POSTURES: dict[int, GraspPosture]`: per grasp class, `joints_deg` (20,) in
-  `sim.human_hand.JOINT_NAMES` order, `object_pos` (3,) metres and `object_quat` (4,) (w, x, y, z): the
-  pose of the object (`sim.grasp_objects.GRASP_OBJECTS[grasp]`) in the hand frame of
-  `sim.human_hand` (origin at the wrist, +x to the fingers, +y to the thumb, palm facing -z). Tuned
-  for `DEFAULT_SHAPE`.
+* `GRASP_POSTURES: dict[int, GraspPosture]`: per grasp class, `joints_deg` (20,) in `JOINT_NAMES`
+  order, `object_pos` (3,) metres and `object_quat` (4,) (w, x, y, z): the pose of the object
+  (`GRASP_OBJECTS[grasp]`) in the hand frame of the human hand (origin at the wrist, +x to the
+  fingers, +y to the thumb, palm facing -z). Tuned for `DEFAULT_SHAPE`.
 * `posture(grasp, stage=1.0)` -> (20,) degrees: `stage` 0 is the relaxed hand
   (`NEUTRAL_POSTURE_DEG`), 1 the grasp, linear in between (reach-to-grasp snapshots, GRASP §VII).
 * `hand_pose_in_world(grasp)` -> (pos (3,), quat (4,)): where the hand is in the scene's world frame,
   which is the object's frame: the object stands upright (its z axis up) at the origin.
-* `grasp_scene_xml(grasp, shape=DEFAULT_SHAPE, with_object=True, object_offset=(0, 0, 0),
-  object_rgba=(0, 0, 0, 1), background_rgb=(0, 0, 0), ambient=0.35, diffuse=0.65,
-  light_dir=(0.3, -0.4, -1.0), fovy_deg=30.0, max_image_size=640, object_joint=False)` -> MJCF string: the hand (root
-  fixed; its 20 joints are the model's qpos, set them with `scene_qpos(posture_deg)`) + the object
-  (black by default, GRASP §III-B; body "object", geom "object") + a fixed camera named "view"
-  (`sim.grasp_views` moves it). `object_offset` shifts the object in the hand frame (metres), e.g.
-  away from the palm while reaching.
-* Rendering (camera pose, images of the hand with or without the object) is in `sim.grasp_views`:
+* `grasp_scene_xml(grasp, shape=DEFAULT_SHAPE, options=GraspSceneOptions(), max_image_size=640)` ->
+  MJCF string: the hand (root fixed; its 20 joints are the model's qpos, set them with
+  `scene_qpos(posture_deg)`) + the object (black by default, GRASP §III-B; body "object", geom
+  "object") + a fixed camera named "view" (`sim.grasping.GraspRenderer` moves it).
+  `GraspSceneOptions.object_offset` shifts the object in the hand frame (metres), e.g. away from the
+  palm while reaching.
+* Rendering (camera pose, images of the hand with or without the object) is in `sim.grasping`:
   `render_grasp(grasp, camera_pos, look_at=None, rotation=None, width, height, shape, posture_deg,
-  with_object, background_rgb)` -> (H, W, 3) uint8.
+  options)` -> (H, W, 3) uint8.
 * `scene_qpos(posture_deg)` -> (20,) radians for the scene's qpos (the hand's 20 joints only).
 * `grasp_contacts(grasp, shape=DEFAULT_SHAPE, posture_deg=None)` -> `GraspContacts(parts (C,) geom
   names of the hand, positions (C, 3) and normals (C, 3) in the object frame (normals point out of the
@@ -41,6 +37,7 @@ from typing import NamedTuple
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, check_int, check_real, matrix_to_quat, quat_to_matrix
 from sim._src.grasp_objects import GRASP_OBJECTS, check_grasp_class
@@ -48,14 +45,19 @@ from sim._src.human_hand import (DEFAULT_SHAPE, FINGERS, N_JOINTS, NEUTRAL_POSTU
     hand_body_xml, hand_defaults_xml, posture_qpos)
 from sim._src.scenes import offscreen_visual_xml
 
-__all__ = ["GRASP_POSTURES", "GraspContacts", "GraspPosture", "grasp_contacts", "grasp_plausibility",
-           "grasp_scene_xml", "hand_pose_in_world", "posture", "scene_qpos"]
+__all__ = ["GRASP_POSTURES", "GraspContacts", "GraspPosture", "GraspSceneOptions", "grasp_contacts",
+           "grasp_plausibility", "grasp_scene_xml", "hand_pose_in_world", "posture", "scene_qpos"]
 
 
 @dataclass(frozen=True)
 class GraspPosture:
-    """Joint angles (20,) in degrees and the object's pose (position (3,) m, quaternion (4,)) in the
-    hand frame."""
+    """A human reference grasp: the hand's joint angles and the object's pose in the hand frame.
+
+    Attributes:
+        joints_deg: (20,) joint angles in degrees, `JOINT_NAMES` order.
+        object_pos: (3,) the object's position in the hand frame (m).
+        object_quat: (4,) its orientation in the hand frame (w, x, y, z).
+    """
 
     joints_deg: tuple[float, ...]
     object_pos: tuple[float, float, float]
@@ -84,7 +86,18 @@ GRASP_POSTURES: dict[int, GraspPosture] = {
 
 
 def posture(grasp: int, stage: float = 1.0) -> np.ndarray:
-    """(20,) joint angles in degrees: NEUTRAL at `stage` 0, the grasp's posture at 1, linear between."""
+    """The hand's joint angles on the way from the relaxed hand to a grasp (GRASP §VII snapshots).
+
+    Args:
+        grasp: the grasp class (`GRASP_CLASSES`).
+        stage: 0 is the relaxed hand (`NEUTRAL_POSTURE_DEG`), 1 the grasp's posture, linear between.
+
+    Returns:
+        (20,) joint angles in degrees, `JOINT_NAMES` order.
+
+    Raises:
+        ValueError: an unknown grasp class or a stage outside [0, 1].
+    """
     grasp = check_grasp_class(grasp)
     stage = check_real(stage, "stage", min_value=0.0, max_value=1.0)
     target = np.asarray(GRASP_POSTURES[grasp].joints_deg)
@@ -92,8 +105,18 @@ def posture(grasp: int, stage: float = 1.0) -> np.ndarray:
 
 
 def hand_pose_in_world(grasp: int) -> tuple[np.ndarray, np.ndarray]:
-    """(pos (3,), quat (4,)) of the hand frame in the scene's world frame (= the object's frame, object
-    upright at the origin)."""
+    """Where the hand of a reference grasp is, in the frame of the object it holds.
+
+    Args:
+        grasp: the grasp class (`GRASP_CLASSES`).
+
+    Returns:
+        (pos (3,), quat (4,) w x y z) of the hand frame in the scene's world frame, which is the
+            object's frame: the object upright at the origin.
+
+    Raises:
+        ValueError: an unknown grasp class.
+    """
     g = GRASP_POSTURES[check_grasp_class(grasp)]
     q = np.asarray(g.object_quat, float)
     r_ho = quat_to_matrix(q / np.linalg.norm(q))   # object axes in the hand frame
@@ -107,39 +130,103 @@ def _rgb(value, name: str, n: int) -> str:
     return " ".join(f"{v:.4f}" for v in arr)
 
 
-def grasp_scene_xml(grasp: int, shape: HandShape = DEFAULT_SHAPE, with_object: bool = True,
-                    object_offset=(0.0, 0.0, 0.0), object_rgba=(0.0, 0.0, 0.0, 1.0), background_rgb=(0.0, 0.0, 0.0),
-                    ambient: float = 0.35, diffuse: float = 0.65, light_dir=(0.3, -0.4, -1.0),
-                    fovy_deg: float = 30.0, max_image_size: int = 640, object_joint: bool = False) -> str:
-    """MJCF of the hand in grasp `grasp` holding its object (see the module docstring).
+@dataclass(frozen=True)
+class GraspSceneOptions:
+    """How the scene of a hand in a grasp (`grasp_scene_xml`) looks, and what the hand holds.
+
+    Fields are checked when the object is made. Change one with `dataclasses.replace(options, ...)`.
+
+    Attributes:
+        with_object: put the grasp's object in the hand.
+        object_offset: (3,) moves the object in the hand frame (m, each in [-1, 1]), e.g. away from
+            the palm while reaching.
+        object_rgba: the object's colour (RGBA in [0, 1]; black, as in GRASP §III-B).
+        background_rgb: the flat background colour (RGB in [0, 1]; the renderer's clear colour is
+            black, so a skybox of this colour is added).
+        ambient: the headlight's ambient level, in [0, 1].
+        diffuse: the key light's diffuse level, in [0, 1] (the headlight's is half of it).
+        light_dir: (3,) the key light's direction (world), not zero.
+        fovy_deg: the camera's vertical field of view (degrees, in [1, 120]).
+        object_joint: give the object a free joint (7 more qpos after the hand's 20, at rest where it
+            is placed), so that collision detection also reports the palm's contacts (MuJoCo skips
+            pairs of bodies that are both fixed to the world, as the hand's root and a jointless
+            object are).
+
+    Raises:
+        ValueError: a field out of its range or of the wrong shape, naming the field.
+    """
+
+    with_object: bool = True
+    object_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    object_rgba: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    background_rgb: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    ambient: float = 0.35
+    diffuse: float = 0.65
+    light_dir: tuple[float, float, float] = (0.3, -0.4, -1.0)
+    fovy_deg: float = 30.0
+    object_joint: bool = False
+
+    def __post_init__(self):
+        for name in ("with_object", "object_joint"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name}: expected a bool, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, bool(getattr(self, name)))
+        ldir = as_array(self.light_dir, "light_dir", shape=(3,))
+        if np.linalg.norm(ldir) < 1e-9:
+            raise ValueError("light_dir: must not be the zero vector")
+        checked = dict(
+            object_offset=as_array(self.object_offset, "object_offset", shape=(3,), min_value=-1.0, max_value=1.0),
+            object_rgba=as_array(self.object_rgba, "object_rgba", shape=(4,), min_value=0.0, max_value=1.0),
+            background_rgb=as_array(self.background_rgb, "background_rgb", shape=(3,), min_value=0.0,
+                                    max_value=1.0),
+            light_dir=ldir)
+        for name, value in checked.items():
+            object.__setattr__(self, name, tuple(float(v) for v in value))
+        object.__setattr__(self, "ambient", check_real(self.ambient, "ambient", min_value=0.0, max_value=1.0))
+        object.__setattr__(self, "diffuse", check_real(self.diffuse, "diffuse", min_value=0.0, max_value=1.0))
+        object.__setattr__(self, "fovy_deg", check_real(self.fovy_deg, "fovy_deg", min_value=1.0, max_value=120.0))
+
+
+def grasp_scene_xml(grasp: int, shape: HandShape = DEFAULT_SHAPE, options: GraspSceneOptions = GraspSceneOptions(),
+                    max_image_size: int = 640) -> str:
+    """MJCF of the human hand in a reference grasp, holding its object, with a camera named "view".
 
     The hand's joints start at zero: set `data.qpos[:] = scene_qpos(posture_deg)` before `mj_forward`.
-    `object_offset` (3,) moves the object in the hand frame (metres). `object_joint` gives the object a
-    free joint (7 more qpos after the hand's 20, at rest where it is placed), so that collision
-    detection also reports the palm's contacts (MuJoCo skips pairs of bodies that are both fixed to the
-    world, as the hand's root and a jointless object are). The background is a flat
-    `background_rgb` (the renderer's clear colour is black, so a skybox of that colour is added).
+    The world frame is the object's (see the module docstring).
+
+    Args:
+        grasp: the grasp class (`GRASP_CLASSES`).
+        shape: the hand's anthropometry.
+        options: the object, its offset and colour, the background, the lights and the camera's field
+            of view (`GraspSceneOptions`).
+        max_image_size: the offscreen buffer's side (px, in [16, 4096]), at least the largest image
+            rendered.
+
+    Returns:
+        The MJCF text.
+
+    Raises:
+        ValueError: an unknown grasp class, `options` not a `GraspSceneOptions`, or a bad
+            `max_image_size`.
     """
     grasp = check_grasp_class(grasp)
-    offset = as_array(object_offset, "object_offset", shape=(3,), min_value=-1.0, max_value=1.0)
-    ambient = check_real(ambient, "ambient", min_value=0.0, max_value=1.0)
-    diffuse = check_real(diffuse, "diffuse", min_value=0.0, max_value=1.0)
-    ldir = as_array(light_dir, "light_dir", shape=(3,))
-    if np.linalg.norm(ldir) < 1e-9:
-        raise ValueError("light_dir: must not be the zero vector")
-    fovy = check_real(fovy_deg, "fovy_deg", min_value=1.0, max_value=120.0)
+    if not isinstance(options, GraspSceneOptions):
+        raise ValueError(f"options: expected a GraspSceneOptions, got {type(options).__name__}")
+    offset = np.asarray(options.object_offset)
+    ambient, diffuse, fovy = options.ambient, options.diffuse, options.fovy_deg
+    ldir = np.asarray(options.light_dir)
     size = check_int(max_image_size, "max_image_size", min_value=16, max_value=4096)
     hand_pos, hand_quat = hand_pose_in_world(grasp)
     r_wh = quat_to_matrix(hand_quat)
     obj_pos = r_wh @ offset
     obj = GRASP_OBJECTS[grasp]
     obj_xml = ""
-    if with_object:
-        geom = obj.geom_xml(rgba=_rgb(object_rgba, "object_rgba", 4),
+    if options.with_object:
+        geom = obj.geom_xml(rgba=_rgb(options.object_rgba, "object_rgba", 4),
                             extra='contype="0" conaffinity="1" material="matte"')
-        joint = "<freejoint/>" if object_joint else ""
+        joint = "<freejoint/>" if options.object_joint else ""
         obj_xml = f'<body name="object" pos="{obj_pos[0]:.5f} {obj_pos[1]:.5f} {obj_pos[2]:.5f}">{joint}{geom}</body>'
-    bg = _rgb(background_rgb, "background_rgb", 3)
+    bg = _rgb(options.background_rgb, "background_rgb", 3)
     return f"""<mujoco model="grasp_{grasp}">
   <compiler angle="radian"/>
   <option gravity="0 0 0"/>
@@ -158,14 +245,30 @@ def grasp_scene_xml(grasp: int, shape: HandShape = DEFAULT_SHAPE, with_object: b
 </mujoco>"""
 
 
-def scene_qpos(posture_deg) -> np.ndarray:
-    """(20,) degrees -> the scene's qpos (20,) in radians (checked against the joint ranges)."""
+def scene_qpos(posture_deg: ArrayLike) -> np.ndarray:
+    """The grasp scene's qpos for a hand posture.
+
+    Args:
+        posture_deg: (20,) joint angles in degrees, `JOINT_NAMES` order.
+
+    Returns:
+        (20,) the scene's qpos in radians (the hand's 20 joints only).
+
+    Raises:
+        ValueError: a posture of the wrong shape or outside the joint ranges.
+    """
     return posture_qpos(posture_deg)
 
 
 class GraspContacts(NamedTuple):
-    """Hand-object contacts: parts (C,) hand geom names; positions (C, 3), normals (C, 3) (out of the
-    object) in the object frame; penetration (C,) metres (>= 0)."""
+    """The C contacts between the hand and the object of a grasp.
+
+    Attributes:
+        parts: (C,) the hand geoms' names ("palm_index", "thumb_distal", ...).
+        positions: (C, 3) contact positions in the object frame.
+        normals: (C, 3) contact normals in the object frame, out of the object (towards the hand).
+        penetration: (C,) penetration depths (m, >= 0).
+    """
 
     parts: tuple[str, ...]
     positions: np.ndarray
@@ -179,11 +282,24 @@ def _posture_or_default(grasp: int, posture_deg) -> np.ndarray:
     return as_array(posture_deg, "posture_deg", shape=(N_JOINTS,))
 
 
-def grasp_contacts(grasp: int, shape: HandShape = DEFAULT_SHAPE, posture_deg=None) -> GraspContacts:
-    """Contacts between the hand (in `posture_deg`, default the grasp's) and the grasp's object, from
-    native MuJoCo collision detection (`mj_forward`)."""
+def grasp_contacts(grasp: int, shape: HandShape = DEFAULT_SHAPE, posture_deg: ArrayLike | None = None) -> GraspContacts:
+    """The contacts between the hand and a grasp's object, from MuJoCo's collision detection.
+
+    These are the human contacts of MAP §IV-A's virtual-finger comparison (the paper tags them by hand).
+
+    Args:
+        grasp: the grasp class (`GRASP_CLASSES`).
+        shape: the hand's anthropometry.
+        posture_deg: (20,) joint angles in degrees; None: the grasp's own (`GRASP_POSTURES`).
+
+    Returns:
+        The `GraspContacts` of native MuJoCo's `mj_forward`.
+
+    Raises:
+        ValueError: an unknown grasp class or a posture of the wrong shape or outside the ranges.
+    """
     grasp = check_grasp_class(grasp)
-    model = mujoco.MjModel.from_xml_string(grasp_scene_xml(grasp, shape, object_joint=True))
+    model = mujoco.MjModel.from_xml_string(grasp_scene_xml(grasp, shape, GraspSceneOptions(object_joint=True)))
     data = mujoco.MjData(model)
     data.qpos[:N_JOINTS] = scene_qpos(_posture_or_default(grasp, posture_deg))
     mujoco.mj_forward(model, data)
@@ -207,7 +323,19 @@ def _finger_of(part: str) -> str:
 
 
 def grasp_plausibility(grasp: int, shape: HandShape = DEFAULT_SHAPE) -> dict:
-    """Contact count, parts in contact, fingers in contact and the deepest penetration (mm) of a grasp."""
+    """How well a reference grasp holds: its contacts with the object, summarised.
+
+    Args:
+        grasp: the grasp class (`GRASP_CLASSES`).
+        shape: the hand's anthropometry.
+
+    Returns:
+        A dict: `n_contacts`, `n_parts` (hand geoms in contact), `fingers_in_contact` (a tuple of
+            finger names, "palm" for palm geoms) and `max_penetration_mm`.
+
+    Raises:
+        ValueError: an unknown grasp class.
+    """
     c = grasp_contacts(grasp, shape)
     fingers = tuple(f for f in FINGERS + ("palm",) if f in {_finger_of(p) for p in c.parts})
     return {"n_contacts": len(c.parts), "n_parts": len(set(c.parts)), "fingers_in_contact": fingers,

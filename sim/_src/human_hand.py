@@ -1,5 +1,5 @@
 """A parametric right human hand written as MJCF: capsule fingers and metacarpals, an ellipsoid thenar
-eminence, 20 hinge joints with human ranges, skin-coloured.
+eminence, 20 hinge joints with human ranges, skin-coloured (the hand of GRASP §III-B's database).
 
 Hand frame (the `hand` body): origin at the wrist, +x from the wrist towards the fingers, +y towards
 the thumb (radial side), +z out of the back of the hand; the palm faces -z. Finger flexion is a
@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, check_real, matrix_to_quat, quat_to_matrix
 
@@ -52,14 +53,20 @@ NEUTRAL_POSTURE_DEG: np.ndarray = np.array(
 
 @dataclass(frozen=True)
 class HandShape:
-    """Anthropometry of a hand, in metres.
+    """Anthropometry of a hand, in metres (checked when the object is made).
 
-    finger_lengths: per finger (thumb, index, middle, ring, little) the three segment lengths, bone
-        to bone (thumb: metacarpal, proximal, distal; others: proximal, middle, distal phalanx), the
-        distal one to the fingertip.
-    finger_radius: radius of the index proximal phalanx; other segments scale from it.
-    palm_length (wrist to the middle finger's MCP joint), palm_width (across the MCP joints),
-    palm_thickness; skin_rgba: RGBA in [0, 1].
+    Attributes:
+        finger_lengths: per finger (thumb, index, middle, ring, little) the three segment lengths,
+            bone to bone (thumb: metacarpal, proximal, distal; others: proximal, middle, distal
+            phalanx), the distal one to the fingertip; each in [0.005, 0.1].
+        finger_radius: radius of the index proximal phalanx; other segments scale from it.
+        palm_length: wrist to the middle finger's MCP joint.
+        palm_width: across the MCP joints.
+        palm_thickness: the palm's thickness.
+        skin_rgba: RGBA in [0, 1].
+
+    Raises:
+        ValueError: a field out of its range or of the wrong shape, naming the field.
     """
 
     finger_lengths: tuple[tuple[float, float, float], ...] = (
@@ -153,11 +160,21 @@ def _range(name: str):
     return JOINT_RANGES_DEG[JOINT_NAMES.index(name)]
 
 
-def hand_body_xml(shape: HandShape = DEFAULT_SHAPE, pos=(0.0, 0.0, 0.0), quat=(1.0, 0.0, 0.0, 0.0),
+def hand_body_xml(shape: HandShape = DEFAULT_SHAPE, pos: ArrayLike = (0.0, 0.0, 0.0),
+                  quat: ArrayLike = (1.0, 0.0, 0.0, 0.0),
                   name: str = "hand") -> str:
-    """The MJCF `<body>` of the hand (root fixed at `pos`, `quat` in its parent), to put in a worldbody.
+    """The MJCF `<body>` of the hand, to put in a worldbody or another body.
 
     Needs the `<default>` class "skin" of `hand_defaults_xml(shape)` in the same model.
+
+    Args:
+        shape: the hand's anthropometry.
+        pos: (3,) the root's position in its parent (the root is fixed).
+        quat: (4,) its orientation in its parent (w, x, y, z).
+        name: the root body's name.
+
+    Returns:
+        The `<body>` element, with the 20 joints of `JOINT_NAMES` and geoms named after the bones.
     """
     L, W, T = shape.palm_length, shape.palm_width, shape.palm_thickness
     r0 = shape.finger_radius
@@ -197,19 +214,43 @@ def hand_body_xml(shape: HandShape = DEFAULT_SHAPE, pos=(0.0, 0.0, 0.0), quat=(1
 
 
 def hand_defaults_xml(shape: HandShape = DEFAULT_SHAPE) -> str:
-    """The `<default class="skin">` that `hand_body_xml` geoms use (colour, contact filtering)."""
+    """The `<default class="skin">` that `hand_body_xml` geoms use (colour, contact filtering).
+
+    Args:
+        shape: the hand's anthropometry (its skin colour is used).
+
+    Returns:
+        The `<default>` element.
+    """
     return (f'<default class="skin"><geom rgba="{_fmt(shape.skin_rgba)}" contype="1" conaffinity="0" '
             f'condim="3" friction="1 0.01 0.001" density="1100"/></default>')
 
 
 def hand_model_xml(shape: HandShape = DEFAULT_SHAPE) -> str:
-    """A stand-alone model with only the hand (fixed at the origin, identity orientation)."""
+    """A stand-alone MJCF model with only the hand (fixed at the origin, identity orientation).
+
+    Args:
+        shape: the hand's anthropometry.
+
+    Returns:
+        The MJCF text.
+    """
     return (f'<mujoco model="human_hand"><compiler angle="radian"/><default>{hand_defaults_xml(shape)}</default>'
             f'<worldbody><light pos="0 0 1" dir="0 0 -1"/>{hand_body_xml(shape)}</worldbody></mujoco>')
 
 
-def posture_qpos(posture_deg) -> np.ndarray:
-    """(20,) joint angles in degrees (JOINT_NAMES order) -> (20,) radians, checked against the ranges."""
+def posture_qpos(posture_deg: ArrayLike) -> np.ndarray:
+    """The hand's qpos for a posture, checked against the joint ranges.
+
+    Args:
+        posture_deg: (20,) joint angles in degrees, `JOINT_NAMES` order.
+
+    Returns:
+        (20,) radians.
+
+    Raises:
+        ValueError: a posture of the wrong shape, or a joint outside its range (naming the joint).
+    """
     p = as_array(posture_deg, "posture_deg", shape=(N_JOINTS,))
     lo, hi = JOINT_RANGES_DEG[:, 0], JOINT_RANGES_DEG[:, 1]
     bad = np.flatnonzero((p < lo - 1e-6) | (p > hi + 1e-6))
@@ -220,8 +261,18 @@ def posture_qpos(posture_deg) -> np.ndarray:
     return np.radians(p)
 
 
-def clip_posture(posture_deg) -> np.ndarray:
-    """Clip (..., 20) joint angles in degrees to the human ranges."""
+def clip_posture(posture_deg: ArrayLike) -> np.ndarray:
+    """Clip joint angles to the human ranges (`JOINT_RANGES_DEG`).
+
+    Args:
+        posture_deg: (..., 20) joint angles in degrees.
+
+    Returns:
+        (..., 20) the clipped angles.
+
+    Raises:
+        ValueError: a last axis other than 20, or non-finite values.
+    """
     p = as_array(posture_deg, "posture_deg")
     if p.shape[-1] != N_JOINTS:
         raise ValueError(f"posture_deg: expected a last axis of {N_JOINTS}, got shape {p.shape}")

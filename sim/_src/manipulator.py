@@ -1,17 +1,17 @@
-"""A Barrett-WAM-like 7-DoF arm carrying a robot hand of `sim.robot_hands`, at the table of the
-demonstration scene (`sim.person_scene.TableSpec`), with a few free objects to pick and place; MJCF
-written here. Inverse kinematics: `sim.manipulator_ik`.
+"""A Barrett-WAM-like 7-DoF arm carrying a robot hand of MAP §III, at the table of the demonstration
+scene (`sim.scenes.TableSpec`), with a few free objects to pick and place; MJCF written here. Inverse
+kinematics: `sim.robot.solve_ik`.
 
 The arm (WAM proportions and joint limits): a base on a pedestal whose top is level with the table
 top, standing at the table's near edge (where the demonstrator sat, `BASE_POS`) and facing the table
 (-y). Shoulder 0.346 m above the base: J1 yaw (base z), J2 pitch, J3 upper-arm twist, meeting in one
 point (a spherical shoulder); upper arm 0.55 m along z with the WAM's 0.045 m elbow offset; J4 elbow
 (pitch); forearm 0.30 m; J5 forearm twist, J6 wrist pitch, J7 wrist roll meeting in one point (a
-spherical wrist); flange 0.06 m beyond it. Zero pose: the arm points straight up. The hand fragment
-(`sim.robot_hands.hand_body_xml`) sits on the flange with its wrist stub: the hand frame (origin at the
-palm surface centre, +z the palm normal, see `sim.robot_hand_specs`) is 0.12 m along the flange's z,
-unrotated, so the palm faces away from the wrist. Site "palm_centre" (the hand frame) is what
-`sim.manipulator_ik.solve_ik` places.
+spherical wrist); flange 0.06 m beyond it. Zero pose: the arm points straight up. The robot hand
+fragment (the one of the grasp scenes, `sim.hands.grasp_model`) sits on the flange with its wrist
+stub: the hand frame (origin at the palm surface centre, +z the palm normal) is 0.12 m along the
+flange's z, unrotated, so the palm faces away from the wrist. Site "palm_centre" (the hand frame) is
+what `sim.robot.solve_ik` places.
 
 Control: one position actuator per arm joint ("arm1" ... "arm7", WAM-like PD gains, force-limited)
 then the hand's finger actuators. Every arm and hand body has gravcomp="1" (MuJoCo applies the
@@ -28,9 +28,11 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, check_choice
 from sim._src.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS
@@ -56,7 +58,7 @@ _ARMATURE = (0.1, 0.1, 0.05, 0.05, 0.01, 0.01, 0.005)
 BASE_POS = np.array([-0.2, 0.07, 0.75])   # pedestal top, at the near edge of the default table
 # the hand above the table in front of the robot, palm down (radians, `ARM_JOINTS` order)
 HOME_Q = np.array([0.0, 0.75, 0.0, 1.9, 0.0, 0.5, 0.0])
-# default objects (grasp classes of `sim.grasp_objects`) and where they stand (x, y, world): the
+# default objects (grasp classes of `sim.grasping.GRASP_OBJECTS`) and where they stand (x, y, world): the
 # demonstration scene's object slots
 DEFAULT_OBJECTS: tuple[int, ...] = (1, 4, 10)
 DEFAULT_OBJECT_XY = np.array([[-0.20, -0.42], [0.0, -0.33], [-0.40, -0.26]])
@@ -127,11 +129,25 @@ def _objects_xml(objects: Sequence[int], object_xy: np.ndarray, top_z: float) ->
     return "".join(bodies)
 
 
-def manipulator_scene_xml(hand: str = "barrett", table: TableSpec = TableSpec(), base_pos=BASE_POS,
-                          objects: Sequence[int] = DEFAULT_OBJECTS, object_xy=None) -> str:
-    """MJCF of the arm with `hand` on its pedestal at `base_pos` (3,) (the pedestal top, world m), the
-    `table`, and one free object per grasp class in `objects` (bodies and free joints "object0", ...)
-    standing upright on the table at `object_xy` (K, 2) (default: the demonstration slots)."""
+def manipulator_scene_xml(hand: str = "barrett", table: TableSpec = TableSpec(), base_pos: ArrayLike = BASE_POS,
+                          objects: Sequence[int] = DEFAULT_OBJECTS, object_xy: ArrayLike | None = None) -> str:
+    """MJCF of the arm with a robot hand on its pedestal at the table, with free objects on the table.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        table: the table (the demonstration scene's by default).
+        base_pos: (3,) the pedestal top (world m).
+        objects: one free object per grasp class listed (bodies and free joints "object0", ...),
+            standing upright on the table.
+        object_xy: (K, 2) where the objects stand (world m); None: the demonstration slots.
+
+    Returns:
+        The MJCF text.
+
+    Raises:
+        ValueError: an unknown hand or grasp class, a `table` that is not a `TableSpec`, or positions
+            of the wrong shape; more objects than default slots without `object_xy`.
+    """
     hand = hand_spec(hand).name
     if not isinstance(table, TableSpec):
         raise ValueError(f"table: expected a TableSpec, got {type(table).__name__}")
@@ -174,11 +190,18 @@ def manipulator_scene_xml(hand: str = "barrett", table: TableSpec = TableSpec(),
 
 @dataclass(frozen=True)
 class ManipulatorLayout:
-    """Where things are in a compiled manipulator scene (numpy ints). K objects, D hand DoF.
+    """Where things are in a compiled manipulator scene (numpy ints); K objects, D hand DoF.
 
-    arm_qpos (7,), arm_dof (7,): qpos and qvel index of each arm joint; arm_ctrl (7,) and hand_ctrl (D,)
-    actuator indices; palm_site: the site the IK places ("palm_centre"); flange_site; object_qpos (K,)
-    start of each object's free joint (7); object_body (K,).
+    Attributes:
+        hand: "barrett" or "karlsruhe".
+        arm_qpos: (7,) qpos index of each arm joint.
+        arm_dof: (7,) qvel index of each arm joint.
+        arm_ctrl: (7,) actuator index of each arm joint.
+        hand_ctrl: (D,) actuator index of each hand DoF.
+        palm_site: the site the IK places ("palm_centre").
+        flange_site: the flange's site.
+        object_qpos: (K,) start of each object's free joint (7) in qpos.
+        object_body: (K,) body id of each object.
     """
 
     hand: str
@@ -216,9 +239,21 @@ def _default_model(hand: str) -> tuple[mujoco.MjModel, ManipulatorLayout]:
     return model, scene_layout(model, hand)
 
 
-def manipulator_model(hand: str = "barrett", **scene) -> tuple[mujoco.MjModel, ManipulatorLayout]:
-    """Compile `manipulator_scene_xml(hand, **scene)`; return the model and its layout. The default
-    scene's model is cached (do not modify it; `copy.copy` it to change parameters)."""
+def manipulator_model(hand: str = "barrett", **scene: Any) -> tuple[mujoco.MjModel, ManipulatorLayout]:
+    """Compile the manipulator scene of `manipulator_scene_xml`.
+
+    The default scene's model is cached (do not modify it; `copy.copy` it to change parameters).
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        **scene: `manipulator_scene_xml`'s other arguments (table, base_pos, objects, object_xy).
+
+    Returns:
+        (model, layout).
+
+    Raises:
+        ValueError: bad input to `manipulator_scene_xml`.
+    """
     hand = hand_spec(hand).name
     if not scene:
         return _default_model(hand)
@@ -226,9 +261,23 @@ def manipulator_model(hand: str = "barrett", **scene) -> tuple[mujoco.MjModel, M
     return model, scene_layout(model, hand)
 
 
-def manipulator_qpos(model: mujoco.MjModel, layout: ManipulatorLayout, q_arm=HOME_Q, hand_targets=None) -> np.ndarray:
-    """qpos (nq,): the arm at `q_arm` (7,), the fingers at `hand_targets` (D,) (default: the first
-    preshape's open shape) with their couplings satisfied, the objects where the model puts them."""
+def manipulator_qpos(model: mujoco.MjModel, layout: ManipulatorLayout, q_arm: ArrayLike = HOME_Q,
+                     hand_targets: ArrayLike | None = None) -> np.ndarray:
+    """A pose of the manipulator scene: the arm, the fingers, the objects where the model puts them.
+
+    Args:
+        model: the compiled scene (`manipulator_model`).
+        layout: its layout.
+        q_arm: (7,) arm joint angles (rad).
+        hand_targets: (D,) hand DoF targets, with their couplings satisfied; None: the first preshape's
+            open shape.
+
+    Returns:
+        (nq,) qpos.
+
+    Raises:
+        ValueError: joint vectors of the wrong shape.
+    """
     q_arm = as_array(q_arm, "q_arm", shape=(7,))
     spec = hand_spec(layout.hand)
     if hand_targets is None:

@@ -1,4 +1,4 @@
-"""Forward and inverse kinematics of a serial chain of hinges (the arm of `sim.manipulator`), in JAX.
+"""Forward and inverse kinematics of a serial chain of hinges (the arm of `sim.robot.manipulator_model`), in JAX.
 
 `arm_chain(model, site, joints)` reads a chain from a compiled MuJoCo model: the fixed transforms
 between consecutive joints (the body offsets, jointless bodies folded in), each hinge's axis and
@@ -11,8 +11,8 @@ e = (position error, `ROT_WEIGHT_M` x rotation error as a world-frame rotation v
 geometric Jacobian J (6, K), then clips q to the joint limits; a joint that sits on a limit and that
 the error pulls further out is held for the step (its column of J is zeroed), so the others do not
 compensate for a move that the clip then undoes. The 6 x 6 system is solved by an unrolled Cholesky
-factorisation (`lfd_common.solve_spd`): batched LAPACK calls under `jit` can deadlock XLA:CPU (README,
-Known problems). The error fed to a step is capped (`MAX_STEP`), so far targets move the arm in
+factorisation (`lfd_common.solve_spd`): batched LAPACK calls under `jit` can deadlock XLA:CPU (see the
+known problems in the docs). The error fed to a step is capped (`MAX_STEP`), so far targets move the arm in
 bounded steps and an unreachable target ends at the nearest pose the iterations find, with finite
 numbers. Every target runs from q0 and from `n_restarts - 1` random joint vectors within the limits
 (vmapped with the batch); the answer is, among the runs that converged, the one nearest to q0 (so a
@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, axis_angle_to_matrix, check_int, check_real, float_dtype, matrix_to_quat, \
     quat_to_matrix, solve_spd
@@ -46,9 +47,14 @@ MAX_STEP = 0.1       # cap on the weighted error one DLS step tries to remove (m
 class ArmChain(NamedTuple):
     """A serial chain of K hinges ending in a site (a pytree of arrays; float32 unless x64 is on).
 
-    fixed_pos (K + 1, 3), fixed_rot (K + 1, 3, 3): the fixed transform from the world (k = 0) or from
-    joint k - 1's body (after its rotation) to joint k's body; the last one leads to the site. axis (K, 3)
-    and anchor (K, 3): each hinge's unit axis and point in its body's frame. lower, upper (K,): limits.
+    Attributes:
+        fixed_pos: (K + 1, 3) the fixed translation from the world (k = 0) or from joint k - 1's body
+            (after its rotation) to joint k's body; the last one leads to the site.
+        fixed_rot: (K + 1, 3, 3) the fixed rotations, likewise.
+        axis: (K, 3) each hinge's unit axis in its body's frame.
+        anchor: (K, 3) each hinge's point in its body's frame.
+        lower: (K,) lower joint limits (rad).
+        upper: (K,) upper joint limits (rad).
     """
 
     fixed_pos: jax.Array
@@ -60,8 +66,14 @@ class ArmChain(NamedTuple):
 
 
 class IKResult(NamedTuple):
-    """q (B, K) joint angles (within the limits; best effort where unreachable); pos_error (B,) metres
-    and rot_error (B,) radians of the site's pose at q; reachable (B,) bool: within the tolerances."""
+    """The answer of `solve_ik` for B targets.
+
+    Attributes:
+        q: (B, K) joint angles (within the limits; best effort where unreachable).
+        pos_error: (B,) metres of the site's position at q from the target.
+        rot_error: (B,) radians of its rotation at q from the target.
+        reachable: (B,) bool: within the tolerances.
+    """
 
     q: jax.Array
     pos_error: jax.Array
@@ -79,9 +91,23 @@ def _body_transform(model: mujoco.MjModel, body: int):
 
 
 def arm_chain(model: mujoco.MjModel, site: str = "palm_centre", joints: Sequence[str] | None = None) -> ArmChain:
-    """The chain from the world to `site` of a compiled model. Every joint on the way must be a hinge
-    with its zero at qpos 0, one per body; `joints`, if given, must name them in order from the root
-    (ValueError otherwise)."""
+    """The kinematic chain from the world to a site of a compiled model.
+
+    Reads the fixed transforms between consecutive joints (the body offsets, jointless bodies folded
+    in), each hinge's axis and anchor, and the joint limits (unlimited joints: [-pi, pi]).
+
+    Args:
+        model: a compiled MuJoCo model (e.g. `manipulator_model`'s).
+        site: the site at the chain's end.
+        joints: if given, the names of the chain's joints, in order from the root.
+
+    Returns:
+        The `ArmChain`.
+
+    Raises:
+        ValueError: no such site; a joint on the way that is not one hinge per body with its zero at
+            qpos 0; no joint at all; or `joints` other than the chain's.
+    """
     site_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
     if site_id < 0:
         raise ValueError(f"site: no site named {site!r} in the model")
@@ -145,9 +171,21 @@ def _forward(chain: ArmChain, q):
     return pos.reshape(*q.shape[:-1], 3), rot.reshape(*q.shape[:-1], 3, 3)
 
 
-def forward_kinematics(chain: ArmChain, q):
-    """Site position (..., 3) and rotation (..., 3, 3) (columns: the site's axes in the world) at joint
-    angles q (..., K). Jittable with jax input; numpy input is checked (shape, finite) first."""
+def forward_kinematics(chain: ArmChain, q: ArrayLike) -> tuple[jax.Array, jax.Array]:
+    """The site's pose at given joint angles; matches `mujoco.mj_kinematics`'s site pose.
+
+    Jittable with jax input; numpy input is checked (shape, finite) first.
+
+    Args:
+        chain: the chain (`arm_chain`).
+        q: (..., K) joint angles (rad).
+
+    Returns:
+        (position (..., 3), rotation (..., 3, 3)), the rotation's columns the site's axes in the world.
+
+    Raises:
+        ValueError: q of the wrong shape or not finite (numpy input).
+    """
     if not isinstance(q, jax.Array):
         q = jnp.asarray(as_array(q, "q", ndim=(1, 2, 3)), float_dtype())
     if q.shape[-1] != chain.axis.shape[0]:
@@ -237,18 +275,38 @@ def _keep_reached(old: IKResult, new: IKResult) -> IKResult:
     return jax.tree.map(lambda a, b: jnp.where(old.reachable.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), old, new)
 
 
-def solve_ik(chain: ArmChain, target_pos, target_rot, q0=None, *, pos_tol: float = 1e-3, rot_tol: float = 1e-2,
+def solve_ik(chain: ArmChain, target_pos: ArrayLike, target_rot: ArrayLike, q0: ArrayLike | None = None, *,
+             pos_tol: float = 1e-3, rot_tol: float = 1e-2,
              iterations: int = 100, n_restarts: int = 8, rounds: int = 3, damping: float = 0.05,
              key: jax.Array | None = None) -> IKResult:
-    """Joint angles (B, K) placing `chain`'s site at target_pos (B, 3) (m, world) with rotation
-    target_rot (B, 3, 3) (or unit quaternions (B, 4), w first); see the module docstring.
+    """Joint angles placing the chain's site at B target poses, by damped least squares.
 
-    q0 (B, K): the first start and the reference a converged answer stays nearest to (clipped to the
-    limits; default: the middle of the limits). Each of up to `rounds` rounds runs `iterations` DLS
-    steps from `n_restarts` starts per target: q0 (later rounds: the best q so far) and random joint
-    vectors within the limits drawn with `key` (default key 0); a round after the first runs only
-    while some target is unreached. pos_tol (m), rot_tol (rad): what counts as reachable. damping: λ
-    of the DLS steps (m).
+    See the module docstring for the method. Each of up to `rounds` rounds runs `iterations` DLS steps
+    from `n_restarts` starts per target: q0 (later rounds: the best q so far) and random joint vectors
+    within the limits drawn with `key`; a round after the first runs only while some target is
+    unreached.
+
+    Args:
+        chain: the chain (`arm_chain`).
+        target_pos: (B, 3) target positions (m, world).
+        target_rot: (B, 3, 3) target rotations, or unit quaternions (B, 4), w first.
+        q0: (B, K) the first start and the reference a converged answer stays nearest to (clipped to
+            the limits); None: the middle of the limits.
+        pos_tol: what counts as reachable: position error (m, > 0).
+        rot_tol: what counts as reachable: rotation error (rad, > 0).
+        iterations: DLS steps per start and round.
+        n_restarts: starts per target and round (q0 and n_restarts - 1 random ones).
+        rounds: rounds at most.
+        damping: λ of the DLS steps (m, > 0).
+        key: a `jax.random` key for the random starts; None: key 0.
+
+    Returns:
+        The `IKResult`: per target the converged run nearest to q0, else the one with the smallest
+            weighted error.
+
+    Raises:
+        ValueError: bad input, naming the argument (rotations that are not rotations, quaternions that
+            are not unit, shapes that do not match B and K, tolerances not positive, ...).
     """
     k = int(chain.axis.shape[0])
     pos = as_array(target_pos, "target_pos", shape=(None, 3))

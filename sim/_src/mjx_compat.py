@@ -3,7 +3,7 @@
 `mjx.Data` keeps implementation-specific arrays in `data._impl` (`DataJAX` for `impl="jax"`, a Warp
 data class for `impl="warp"`), which is not public API and may change between MJX releases. `sim`
 needs three of them:
-* the mass matrix M (MJX-JAX `_impl.M`, dense (nv, nv) for small models), which `rollout.mjx_step`
+* the mass matrix M (MJX-JAX `_impl.M`, dense (nv, nv) for small models), which `mjx_step`
   reads after the forward pass and writes back before integrating (to order the LAPACK calls);
 * the signed distance of every candidate contact (MJX-JAX `_impl.contact.dist`, (ncon,) per world,
   negative when penetrating), for the contact-budget check of `grasp_rollout`;
@@ -37,7 +37,7 @@ def _check_version() -> None:
     lo, hi = SUPPORTED_MJX
     if not lo <= mjx_version()[:2] < hi:
         warnings.warn(f"sim: mujoco-mjx {'.'.join(map(str, mjx_version()))} is outside the range "
-                      f"{'.'.join(map(str, lo))} <= v < {'.'.join(map(str, hi))} that sim/_mjx_compat.py was written "
+                      f"{'.'.join(map(str, lo))} <= v < {'.'.join(map(str, hi))} that sim/_src/mjx_compat.py was written "
                       "for (it reads private MJX fields); run tests/test_mjx_compat.py", RuntimeWarning, stacklevel=2)
 
 
@@ -51,7 +51,7 @@ def _field(data: mjx.Data, path: str):
             obj = getattr(obj, name)
         except AttributeError as err:
             raise RuntimeError(f"data: mjx.Data has no private field {path!r} in mujoco-mjx "
-                               f"{'.'.join(map(str, mjx_version()))} (sim/_mjx_compat.py needs updating)") from err
+                               f"{'.'.join(map(str, mjx_version()))} (sim/_src/mjx_compat.py needs updating)") from err
     return obj
 
 

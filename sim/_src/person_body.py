@@ -1,4 +1,4 @@
-"""The demonstrator's body as MJCF for the table-top demonstration scene (`sim.person_scene`).
+"""The demonstrator's body as MJCF for the table-top demonstration scene (`sim.scenes.person_scene_xml`).
 
 Every body part is a mocap body (no physics): a recording sets their poses frame by frame.
 
@@ -9,14 +9,14 @@ nose and mouth), hair, neck, chest and shoulders. Arms are separate mocap bodies
 segment's frame has its origin at the proximal joint and z along the segment (`segment_pose`).
 
 - right arm: "r_upper" (shoulder -> elbow), "r_fore" (elbow -> wrist), "r_hand_mount" holding the
-  `sim.human_hand` hand (body "r_hand", 20 finger joints = the model's qpos) in that module's hand
-  frame (origin at the wrist, +x to the fingers, +y to the thumb, palm towards -z);
+  human hand of `sim.hands.hand_body_xml` (body "r_hand", 20 finger joints = the model's qpos) in its
+  hand frame (origin at the wrist, +x to the fingers, +y to the thumb, palm towards -z);
 - left arm: "l_upper", "l_fore", "l_hand": a simple hand (palm, fingers, thumb) in the same frame
   convention (x to the fingers, palm towards -z; the thumb on -y, it is a left hand).
 
 Geoms are named "<part>.<what>", part one of `PART_PREFIXES`: "person" (clothing, hair),
 "skin" (skin that is neither the right hand nor the face: left hand, bare forearms), "face" (head skin,
-eyes, nose, mouth, neck). `sim.person_scene.geom_parts` reads these names.
+eyes, nose, mouth, neck). The scene's part labels (`sim.scenes.PART_NAMES`) are read from these names.
 """
 from __future__ import annotations
 
@@ -41,10 +41,23 @@ _EYE = np.array([0.0, -0.02, 0.025])
 
 @dataclass(frozen=True)
 class PersonLook:
-    """How a demonstrator looks: body `size` (1 = average man), segment lengths (m), colours (RGBA in
-    [0, 1]), the clothing pattern (`CLOTH_PATTERNS`: the second colour draws it), the hair style
-    (`HAIR_STYLES`), short sleeves (bare forearms) or long, and the right hand's shape (its
-    `skin_rgba` is the skin of the whole person)."""
+    """How a demonstrator looks (checked when the object is made).
+
+    Attributes:
+        size: body size (1 = average man, in [0.6, 1.5]); every trunk point scales with it.
+        upper_arm_m: upper arm length (m, in [0.15, 0.5]).
+        forearm_m: forearm length (m, in [0.15, 0.5]).
+        cloth_rgba: the clothing's colour (RGBA in [0, 1]).
+        cloth2_rgba: the second colour, which draws the pattern.
+        cloth_pattern: the clothing pattern, one of `CLOTH_PATTERNS`.
+        hair_rgba: the hair's colour.
+        hair: the hair style, "none", "short" or "long".
+        short_sleeves: short sleeves (bare forearms) or long.
+        hand: the right hand's shape; its `skin_rgba` is the skin of the whole person.
+
+    Raises:
+        ValueError: a field out of its range or of the wrong type, naming the field.
+    """
 
     size: float = 1.0
     upper_arm_m: float = 0.30
@@ -71,12 +84,20 @@ class PersonLook:
 
     @property
     def skin_rgba(self) -> tuple[float, float, float, float]:
+        """The person's skin colour: the right hand's."""
         return self.hand.skin_rgba
 
 
 def body_points(look: PersonLook) -> dict[str, np.ndarray]:
-    """Trunk-frame points (3,) of the person, metres: "r_shoulder", "l_shoulder" (joint centres),
-    "sternum" (front of the chest), "eye" (between the eyes), "head" (the head ellipsoid's centre)."""
+    """Named points of the person's trunk, in the trunk frame (origin at the face centre).
+
+    Args:
+        look: the person.
+
+    Returns:
+        A dict of (3,) points in metres: "r_shoulder", "l_shoulder" (joint centres), "sternum" (front
+            of the chest), "eye" (between the eyes), "head" (the head ellipsoid's centre).
+    """
     s = look.size
     return {"r_shoulder": s * _R_SHOULDER, "l_shoulder": s * _R_SHOULDER * np.array([-1.0, 1.0, 1.0]),
             "sternum": s * _STERNUM, "eye": s * _EYE, "head": s * _HEAD}
@@ -181,7 +202,7 @@ def _left_hand_xml(look: PersonLook) -> str:
 
 def person_body_xml(look: PersonLook) -> str:
     """The person's mocap bodies (to put in a worldbody); needs `look_assets_xml(look)` in the
-    model's `<asset>` and `sim.human_hand.hand_defaults_xml(look.hand)` in its `<default>`."""
+    model's `<asset>` and `sim.hands.hand_defaults_xml(look.hand)` in its `<default>`."""
     s = look.size
     fore_part, fore_mat = ("skin", "skin_mat") if look.short_sleeves else ("person", "cloth")
     return "".join([

@@ -1,4 +1,4 @@
-"""The table-top demonstration scene (LfD 2009 §III, LEVELSET TR §3): a seated person (`sim.person_body`)
+"""The table-top demonstration scene (LFD §III, LEVELSET §3): a seated person (`PersonLook`)
 at a table with the objects they handle and some distractors, a textured wall behind, a rectified
 stereo camera pair in front; MJCF written here, rendered with MuJoCo's offscreen renderer, with a
 ground-truth part per pixel from MuJoCo's segmentation rendering.
@@ -7,7 +7,7 @@ World frame: z up, the table top at `TableSpec.top_z`, the person behind the tab
 cameras), x the cameras' right. Everything that moves is a mocap body; a frame is a `ScenePose`.
 
 Parts (the per-pixel ground truth of `PersonScene.render`, `PART_NAMES`): 0 background (wall, table,
-floor, distractors), 1 person (clothing, hair), 2 hand (the right hand, `sim.human_hand`), 3 other
+floor, distractors), 1 person (clothing, hair), 2 hand (the right hand, `sim.hands.hand_body_xml`), 3 other
 skin (the left hand, bare forearms), 4 face (head skin, eyes, mouth, neck), 5 + k object k.
 `PART_LABELS` maps them to the segmentation classes 0 background, 1 person, 2 hand skin (both hands
 and bare forearms), 3 face skin, 4 + k object k.
@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, check_int, check_real, matrix_to_quat
 from sim._src.human_hand import hand_defaults_xml
@@ -43,9 +44,21 @@ _OBJ_GEOM = int(mujoco.mjtObj.mjOBJ_GEOM)
 
 @dataclass(frozen=True)
 class StereoRig:
-    """A rectified stereo pair: the left camera's centre (3,) and rotation (3, 3) in the world (columns:
-    image x right, image y down, optical axis), the baseline, the image size and the focal length in
-    pixels."""
+    """A rectified stereo pair of pinhole cameras (checked when the object is made).
+
+    The right camera sits `baseline_m` along the left camera's image x axis with the same orientation.
+
+    Attributes:
+        centre: (3,) the left camera's centre (world).
+        rotation: (3, 3) its rotation in the world (columns: image x right, image y down, optical axis).
+        baseline_m: the baseline (m, > 0).
+        width: the image width (px, in [8, 4096]).
+        height: the image height (px, in [8, 4096]).
+        focal_px: the focal length (px, > 0).
+
+    Raises:
+        ValueError: a field out of its range, or a rotation that is not a proper rotation.
+    """
 
     centre: tuple[float, float, float]
     rotation: tuple[tuple[float, float, float], ...]
@@ -67,25 +80,50 @@ class StereoRig:
         check_real(self.focal_px, "focal_px", min_value=0.0, exclusive_min=True)
 
     def intrinsics(self) -> np.ndarray:
-        """K (3, 3)."""
+        """The cameras' intrinsic matrix.
+
+        Returns:
+            The (3, 3) matrix K, for square pixels and the principal point at the image centre
+                ((W - 1) / 2, (H - 1) / 2).
+        """
         return np.array([[self.focal_px, 0.0, (self.width - 1) / 2], [0.0, self.focal_px, (self.height - 1) / 2],
                          [0.0, 0.0, 1.0]])
 
     def centres(self) -> np.ndarray:
-        """Camera centres (2, 3), world: left, right."""
+        """The two cameras' centres.
+
+        Returns:
+            (2, 3) world points: left, right.
+        """
         c, r = np.array(self.centre), np.array(self.rotation)
         return np.stack([c, c + self.baseline_m * r[:, 0]])
 
     def projection_matrices(self) -> np.ndarray:
-        """P (2, 3, 4) of the left and right camera: homogeneous world point -> homogeneous pixel."""
+        """The two cameras' projection matrices.
+
+        Returns:
+            P (2, 3, 4) of the left and right camera: homogeneous world point -> homogeneous pixel.
+        """
         rot_wc = np.array(self.rotation).T
         return np.stack([self.intrinsics() @ np.hstack([rot_wc, -rot_wc @ c[:, None]]) for c in self.centres()])
 
-    def to_camera(self, points: np.ndarray) -> np.ndarray:
-        """World points (..., 3) -> the left camera's frame (x right, y down, z forward)."""
+    def to_camera(self, points: ArrayLike) -> np.ndarray:
+        """World points in the left camera's frame.
+
+        Args:
+            points: (..., 3) world points.
+
+        Returns:
+            (..., 3) the points in the left camera's frame (x right, y down, z forward).
+        """
         return (np.asarray(points, float) - np.array(self.centre)) @ np.array(self.rotation)
 
     def camera_xml(self) -> str:
+        """The pair as MJCF cameras.
+
+        Returns:
+            The `<camera>` elements "left" and "right" (MuJoCo's convention: x right, y up).
+        """
         r = np.array(self.rotation)
         fovy = np.degrees(2 * np.arctan(self.height / (2 * self.focal_px)))
         xy = " ".join(f"{v:.6f}" for v in np.concatenate([r[:, 0], -r[:, 1]]))  # MuJoCo: x right, y up
@@ -95,7 +133,17 @@ class StereoRig:
 
 @dataclass(frozen=True)
 class TableSpec:
-    """The table (a solid box standing on the floor) and the wall behind the person, metres."""
+    """The table (a solid box standing on the floor) and the wall behind the person, in metres.
+
+    Attributes:
+        top_z: the table top's height.
+        near_y: the edge at the person.
+        far_y: the edge at the cameras.
+        half_width: half the table's width (along x).
+        wall_y: where the wall stands.
+        table_rgb: the table's colour (RGB in [0, 1]).
+        wall_rgb: the wall's colour.
+    """
 
     top_z: float = 0.75
     near_y: float = -0.15        # the edge at the person
@@ -108,10 +156,23 @@ class TableSpec:
 
 class ScenePose(NamedTuple):
     """Poses of the scene's moving parts, world frame, metres; one frame, or T frames with a leading T
-    axis on every field. trunk_pos (3,) the face centre, trunk_rot (3, 3); r_shoulder, r_elbow, r_wrist
-    (3,) the right arm's joint centres, r_hand_rot (3, 3) the right hand's frame, fingers (20,) its
-    joint angles (radians); the same for the left arm (l_hand_rot: the left hand's frame);
-    object_pos (K, 3), object_rot (K, 3, 3) each object's body frame."""
+    axis on every field.
+
+    Attributes:
+        trunk_pos: (3,) the face centre.
+        trunk_rot: (3, 3) the trunk's rotation.
+        r_shoulder: (3,) the right shoulder's joint centre.
+        r_elbow: (3,) the right elbow's.
+        r_wrist: (3,) the right wrist's.
+        r_hand_rot: (3, 3) the right hand's frame.
+        fingers: (20,) the right hand's joint angles (radians).
+        l_shoulder: (3,) the left shoulder's joint centre.
+        l_elbow: (3,) the left elbow's.
+        l_wrist: (3,) the left wrist's.
+        l_hand_rot: (3, 3) the left hand's frame.
+        object_pos: (K, 3) each object's body position.
+        object_rot: (K, 3, 3) each object's body rotation.
+    """
 
     trunk_pos: np.ndarray
     trunk_rot: np.ndarray
@@ -134,8 +195,23 @@ def _rgb(c) -> str:
 
 def person_scene_xml(look: PersonLook, rig: StereoRig, objects: Sequence[str], distractors: Sequence[str] = (),
                      table: TableSpec = TableSpec(), shadows: bool = True) -> str:
-    """MJCF of the scene: `objects` are the geoms (MJCF text) of each object in its body frame (mocap
-    bodies "object0", ...), `distractors` geoms (MJCF text, world coordinates) that never move."""
+    """MJCF of the demonstration scene: the person, the table, the objects and the stereo cameras.
+
+    Args:
+        look: the person.
+        rig: the stereo pair (cameras "left" and "right").
+        objects: the geoms (MJCF text) of each object in its body frame (mocap bodies "object0", ...);
+            1 to 8 of them.
+        distractors: geoms (MJCF text, world coordinates) that never move.
+        table: the table and the wall.
+        shadows: the key light casts shadows.
+
+    Returns:
+        The MJCF text.
+
+    Raises:
+        ValueError: no or too many objects, or a `rig` that is not a `StereoRig`.
+    """
     if not 1 <= len(objects) <= MAX_OBJECTS:
         raise ValueError(f"objects: expected 1 to {MAX_OBJECTS} objects, got {len(objects)}")
     if not isinstance(rig, StereoRig):
@@ -205,11 +281,18 @@ def geom_parts(model: mujoco.MjModel) -> np.ndarray:
 
 
 class PersonScene:
-    """A compiled scene with one offscreen renderer per view, reused across frames.
+    """A compiled demonstration scene with one offscreen renderer per view, reused across frames.
 
     `set_pose(pose)` places a frame, `set_lighting(scale)` scales every light, `render()` returns RGB
     (2, H, W, 3) uint8 and parts (2, H, W) uint8 of the left and right view; `centres()` the right
     hand's centre of volume (3,) and each object's (K, 3), world metres. Close it (or use `with`).
+
+    Args:
+        xml: the scene's MJCF (`person_scene_xml`).
+        rig: the stereo pair it was written with.
+
+    Raises:
+        RuntimeError: the OpenGL backend cannot be loaded (`setup_rendering`).
     """
 
     def __init__(self, xml: str, rig: StereoRig):
@@ -235,7 +318,11 @@ class PersonScene:
         self.data.mocap_quat[i] = quat
 
     def set_pose(self, pose: ScenePose) -> None:
-        """Place one frame (a `ScenePose` without the T axis) and update the kinematics."""
+        """Place one frame and update the kinematics.
+
+        Args:
+            pose: one frame (a `ScenePose` without the T axis).
+        """
         self._place("trunk", pose.trunk_pos, matrix_to_quat(np.asarray(pose.trunk_rot, float)))
         for side in ("r", "l"):
             shoulder, elbow, wrist = (getattr(pose, f"{side}_{j}") for j in ("shoulder", "elbow", "wrist"))
@@ -252,7 +339,11 @@ class PersonScene:
         mujoco.mj_camlight(self.model, self.data)
 
     def set_lighting(self, scale: float) -> None:
-        """Every light (and the headlight) at `scale` times its modelled intensity."""
+        """Scale every light (and the headlight), each clipped to [0, 1].
+
+        Args:
+            scale: the factor on every light's modelled intensity.
+        """
         diffuse, specular, ambient, head = self._light
         self.model.light_diffuse[:] = np.clip(diffuse * scale, 0, 1)
         self.model.light_specular[:] = np.clip(specular * scale, 0, 1)
@@ -260,11 +351,19 @@ class PersonScene:
         self.model.vis.headlight.diffuse[:] = np.clip(head * scale, 0, 1)
 
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
-        """(right hand (3,), objects (K, 3)): centres of volume (uniform density) of their geoms."""
+        """The centres of volume (uniform density) of the right hand's and each object's geoms.
+
+        Returns:
+            (right hand (3,), objects (K, 3)), world metres.
+        """
         return self.data.subtree_com[self._hand_body].copy(), self.data.xipos[self._object_bodies].copy()
 
     def render(self) -> tuple[np.ndarray, np.ndarray]:
-        """RGB (2, H, W, 3) uint8 and parts (2, H, W) uint8 (`PART_NAMES`) of the left and right view."""
+        """Render both views, with the ground-truth part of every pixel.
+
+        Returns:
+            (RGB (2, H, W, 3) uint8, parts (2, H, W) uint8 (`PART_NAMES`)) of the left and right view.
+        """
         h, w = self.rig.height, self.rig.width
         rgb, parts = np.empty((2, h, w, 3), np.uint8), np.empty((2, h, w), np.uint8)
         for v, (renderer, camera) in enumerate(zip(self._renderers, ("left", "right"))):
@@ -279,6 +378,7 @@ class PersonScene:
         return rgb, parts
 
     def close(self) -> None:
+        """Free the renderers' GL contexts."""
         for renderer in self._renderers:
             renderer.close()
         self._renderers = []

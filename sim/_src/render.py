@@ -7,7 +7,7 @@ it is constructed. `import sim` changes nothing there; `setup_rendering` makes t
 and works whenever it is called: before `mujoco` is imported it sets the variable, after it points
 the renderer's `GLContext` at the chosen backend's class. Entry points (experiment scripts, tests that
 render through `mujoco.Renderer` themselves) call it once; `render_frame` and
-`sim.grasp_views.GraspRenderer` call it before they create a context, so they work without it.
+`sim.grasping.GraspRenderer` call it before they create a context, so they work without it.
 """
 from __future__ import annotations
 
@@ -33,16 +33,24 @@ def _gl_context_module():
 
 
 def setup_rendering(backend: str = "egl") -> str:
-    """Make `mujoco.Renderer` use the OpenGL backend `backend` ("egl", "osmesa" or "glfw"); return the
-    backend in use.
+    """Make `mujoco.Renderer` use an OpenGL backend, whenever this is called.
 
     A `MUJOCO_GL` already in the environment is the user's choice and wins over `backend`; otherwise
     `MUJOCO_GL` is set to `backend`. If the `GLContext` class MuJoCo picked at import is not that
     backend's, it is replaced by `mujoco.<backend>.GLContext` (in MuJoCo's `gl_context` module, where
     `mujoco.Renderer` looks it up, and as `mujoco.GLContext`). Other `MUJOCO_GL` values ("glx",
     "disable", ...) are left to MuJoCo. Calling it again changes nothing. EGL (Mesa or NVIDIA) is the
-    backend that works on machines without a display. Raises `ValueError` for an unknown `backend` and
-    `RuntimeError` when the chosen backend cannot be loaded.
+    backend that works on machines without a display.
+
+    Args:
+        backend: "egl", "osmesa" or "glfw".
+
+    Returns:
+        The backend in use.
+
+    Raises:
+        ValueError: an unknown `backend`.
+        RuntimeError: the chosen backend cannot be loaded.
     """
     check_choice(backend, "backend", RENDER_BACKENDS)
     chosen = os.environ.setdefault("MUJOCO_GL", backend).strip().lower()
@@ -64,7 +72,22 @@ def setup_rendering(backend: str = "egl") -> str:
 
 def render_frame(model: mujoco.MjModel, qpos: np.ndarray, width: int = 320, height: int = 240,
                  camera: str | int = -1) -> np.ndarray:
-    """Render the scene at joint positions `qpos` (nq,) and return an RGB image (height, width, 3) uint8."""
+    """Render a scene at given joint positions, offscreen (calls `setup_rendering` first).
+
+    Args:
+        model: the compiled scene.
+        qpos: (nq,) joint positions.
+        width: the image width (px, at least 8, at most the model's offscreen width).
+        height: the image height (px, at least 8, at most the model's offscreen height).
+        camera: a camera's name or id; -1: the free camera.
+
+    Returns:
+        (height, width, 3) uint8 RGB image.
+
+    Raises:
+        ValueError: a size out of range or qpos of the wrong shape.
+        RuntimeError: the OpenGL backend cannot be loaded.
+    """
     width = check_int(width, "width", min_value=8, max_value=model.vis.global_.offwidth)
     height = check_int(height, "height", min_value=8, max_value=model.vis.global_.offheight)
     qpos = as_array(qpos, "qpos", shape=(model.nq,))

@@ -1,4 +1,4 @@
-"""A HOAP-3-like robot arm at a table (Humanoids 2008 §IV-B), as MJCF written here, and kinematic playback.
+"""A HOAP-3-like robot arm at a table (PHMM, Humanoids 2008 §IV-B), as MJCF written here, and kinematic playback.
 
 The arm: a fixed torso; a 3-DoF shoulder (hinges about -x, -y, -z of the shoulder frame {v_i}, in that
 nested order, driven by the Cardan angles phi, theta, psi of `phmm_jax.retarget`); upper arm along
@@ -17,6 +17,7 @@ from typing import NamedTuple
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lfd_common import as_array, check_real
 from sim._src.scenes import checker_asset_xml
@@ -28,13 +29,28 @@ JOINTS = ("shoulder_phi", "shoulder_theta", "shoulder_psi", "elbow", "wrist_twis
 ARM_GEOMS = ("upper_arm", "elbow_cap", "forearm", "palm", "finger_a", "finger_b")
 
 
-def arm_scene_xml(table_top_z: float, table_near_y: float = 0.05, targets=None, upper_arm: float = UPPER_ARM_M,
+def arm_scene_xml(table_top_z: float, table_near_y: float = 0.05, targets: ArrayLike | None = None,
+                  upper_arm: float = UPPER_ARM_M,
                   forearm: float = FOREARM_M) -> str:
-    """MJCF of the robot (torso, 5-DoF arm, gripper) in front of a table whose top is at height
-    `table_top_z` (m) and whose near edge is at y = `table_near_y`; `targets` (K, 3) are drawn as small
-    discs on the table (visual only). The table is a solid block down to the floor, so that an arm
-    inside it is always found (a thin slab lets a capsule cross it undetected). A camera "side" and a
-    camera "front" look at the workspace."""
+    """MJCF of the HOAP-3-like robot (torso, 5-DoF arm, gripper) in front of a table (PHMM §IV).
+
+    The table is a solid block down to the floor, so that an arm inside it is always found (a thin
+    slab lets a capsule cross it undetected). A camera "side" and a camera "front" look at the
+    workspace.
+
+    Args:
+        table_top_z: the table top's height (m, >= 0.01).
+        table_near_y: the table's near edge, y (m).
+        targets: (K, 3) points drawn as small discs on the table (visual only); None: none.
+        upper_arm: the upper arm's length (m, >= 0.01).
+        forearm: elbow to grasp point (m, >= 0.01).
+
+    Returns:
+        The MJCF text.
+
+    Raises:
+        ValueError: a length out of range or targets of the wrong shape.
+    """
     table_top_z = check_real(table_top_z, "table_top_z", min_value=0.01)
     upper_arm = check_real(upper_arm, "upper_arm", min_value=0.01)
     forearm = check_real(forearm, "forearm", min_value=0.01)
@@ -102,8 +118,14 @@ def arm_scene_xml(table_top_z: float, table_near_y: float = 0.05, targets=None, 
 
 
 class Playback(NamedTuple):
-    """grasp (T, 3): grasp-point positions (world, m); elbow (T, 3): elbow joint positions (world, m);
-    table_distance (T,): smallest signed distance (m) of any arm geom to the table (negative inside)."""
+    """The result of `play`: what the arm did, frame by frame.
+
+    Attributes:
+        grasp: (T, 3) grasp-point positions (world, m).
+        elbow: (T, 3) elbow joint positions (world, m).
+        table_distance: (T,) smallest signed distance (m) of any arm geom to the table (negative
+            inside).
+    """
 
     grasp: np.ndarray
     elbow: np.ndarray
@@ -116,8 +138,20 @@ def joint_qpos(cardan, elbow, wrist) -> np.ndarray:
                            np.asarray(wrist, float)[:, None]], axis=1)
 
 
-def play(model: mujoco.MjModel, qpos) -> Playback:
-    """Kinematic playback of joint trajectories qpos (T, 5) (radians, `JOINTS` order)."""
+def play(model: mujoco.MjModel, qpos: ArrayLike) -> Playback:
+    """Kinematic playback of a joint trajectory, with the arm's distance to the table.
+
+    Args:
+        model: the compiled arm scene (`arm_scene_xml`).
+        qpos: (T, 5) joint angles (radians, `JOINTS` order: the Cardan angles phi, theta, psi of
+            `phmm_jax.retarget`, the elbow, the wrist twist).
+
+    Returns:
+        The `Playback`.
+
+    Raises:
+        ValueError: qpos of the wrong shape or not finite.
+    """
     qpos = as_array(qpos, "qpos", shape=(None, model.nq))
     data = mujoco.MjData(model)
     table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")

@@ -1,4 +1,4 @@
-"""The two robot hands of MAP §III as data: fingers, palm, actuated DoF, preshapes (MJCF in `robot_hands`).
+"""The two robot hands of MAP §III as data: fingers, palm, actuated DoF, preshapes (MJCF: `sim.hands.grasp_model`).
 
 A Barrett-like hand (three fingers, one spread DoF shared by two of them, coupled distal links) and a
 Karlsruhe-like hand (human-like: an opposable thumb and four fingers). Hand frame (both hands): origin
@@ -21,11 +21,22 @@ HAND_NAMES: tuple[str, ...] = ("barrett", "karlsruhe")
 
 @dataclass(frozen=True)
 class Finger:
-    """One finger: base position and frame in the hand frame, link lengths, radius.
+    """One finger of a robot hand: base position and frame in the hand frame, link lengths, radius.
 
-    `xyaxes` gives the finger frame's x and y axes in the hand frame; the finger extends along its z
-    axis and flexes about its x axis towards its -y axis. `spread`/`oppose` add a hinge before the
-    flexion (about the finger's z axis / y axis), driven by actuator `dof` of that name.
+    The finger extends along its z axis and flexes about its x axis towards its -y axis.
+
+    Attributes:
+        name: the finger's name (its bodies, geoms and sites are named after it).
+        pos: (3,) the finger base's position in the hand frame (m).
+        xyaxes: (6,) the finger frame's x and y axes in the hand frame.
+        lengths: the proximal and distal link lengths (m).
+        radius: the links' capsule radius (m).
+        flex_dof: the actuator that flexes the proximal link.
+        distal_dof: the actuator of the distal link; None: the distal joint is coupled to the flexion.
+        extra_joint: "spread" or "oppose": a hinge before the flexion (about the finger's z axis / y
+            axis); None: none.
+        extra_dof: the actuator that drives the extra hinge.
+        extra_sign: the direction of the spread hinge's axis.
     """
 
     name: str
@@ -34,17 +45,28 @@ class Finger:
     lengths: tuple[float, float]
     radius: float
     flex_dof: str
-    distal_dof: str | None = None   # None: distal joint coupled to the flexion
-    extra_joint: str | None = None   # "spread" or "oppose"
+    distal_dof: str | None = None
+    extra_joint: str | None = None
     extra_dof: str | None = None
     extra_sign: float = 1.0
 
 
 @dataclass(frozen=True)
 class HandSpec:
-    """A robot hand: fingers, palm capsule, actuated hand DoF and grasp preshapes.
+    """A robot hand of MAP §III: fingers, palm capsule, actuated hand DoF and grasp preshapes.
 
-    `preshapes[name] = (open, closed)`, each (n_dof,) joint targets in radians in `dofs` order.
+    Attributes:
+        name: "barrett" or "karlsruhe".
+        palm_fromto: (6,) the palm capsule's ends in the hand frame (m).
+        palm_radius: its radius (m).
+        fingers: the fingers.
+        dofs: the actuated hand DoF, in actuator order.
+        preshapes: `preshapes[name] = (open, closed)`, each (n_dof,) joint targets in radians in
+            `dofs` order (MAP Fig. 2).
+        distal_coupling: (c0, c1): distal = c0 + c1 * proximal for coupled distal joints.
+        finger_kp: the finger servos' position gain.
+        finger_force: their force limit.
+        dof_range: joint ranges (rad) of DoF whose range differs from the default.
     """
 
     name: str
@@ -53,7 +75,7 @@ class HandSpec:
     fingers: tuple[Finger, ...]
     dofs: tuple[str, ...]
     preshapes: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]
-    distal_coupling: tuple[float, float]  # distal = c0 + c1 * proximal for coupled distal joints
+    distal_coupling: tuple[float, float]
     finger_kp: float
     finger_force: float
     dof_range: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -83,7 +105,7 @@ _BARRETT = HandSpec(
     dofs=("spread", "flex1", "flex2", "flex3"),
     # Fig. 2 g-i: Wrap (large aperture, fingers parallel against the thumb), Two-finger Thumb (small
     # aperture, tips pinch), Precision Disc (fingers spread 60 degrees: a tripod). Two-finger Thumb
-    # (issue 21, measured on the 3 cm cube): the two finger bases are 52 mm apart, so unspread they
+    # (measured on the 3 cm cube): the two finger bases are 52 mm apart, so unspread they
     # straddle a small object and at most one touches it, at its edge, against the thumb (the cube spun
     # or was squeezed out in every trial); spread 0.6 rad their tips meet on the thumb's line. The
     # closing target 0.6 rad (not 1.5) keeps the squeeze below the finger torque limit: at the limit
@@ -139,12 +161,33 @@ HANDS: dict[str, HandSpec] = {"barrett": _BARRETT, "karlsruhe": _KARLSRUHE}
 
 
 def hand_spec(hand: str) -> HandSpec:
-    """The `HandSpec` of `hand` ("barrett" or "karlsruhe"); ValueError naming `hand` otherwise."""
+    """The description of a robot hand.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+
+    Returns:
+        Its `HandSpec`.
+
+    Raises:
+        ValueError: an unknown hand, naming `hand`.
+    """
     return HANDS[check_choice(hand, "hand", HAND_NAMES)]
 
 
 def preshape(hand: str, robot_grasp: str) -> tuple[np.ndarray, np.ndarray]:
-    """(open, closed) hand-DoF targets (n_dof,) of `robot_grasp` on `hand`; ValueError if unknown."""
+    """The open and closed hand-DoF targets of a robot grasp (MAP Fig. 2).
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        robot_grasp: one of `ROBOT_GRASPS[hand]`.
+
+    Returns:
+        (open (n_dof,), closed (n_dof,)) in radians, `HandSpec.dofs` order.
+
+    Raises:
+        ValueError: an unknown hand or robot grasp.
+    """
     spec = hand_spec(hand)
     name = check_choice(robot_grasp, "robot_grasp", ROBOT_GRASPS[spec.name])
     open_, closed = spec.preshapes[name]

@@ -1,16 +1,16 @@
-"""The grasp scenes of MAP §III: a robot hand (`sim.robot_hand_specs`) on a floating wrist, a table and
-the six grasp objects, as MJCF written here, and where things are in the compiled model (`SceneLayout`).
+"""The grasp scenes of MAP §III: a robot hand (`HandSpec`) on a floating wrist, a table and the six
+grasp objects, as MJCF written here, and where things are in the compiled model (`SceneLayout`).
 
 Both hands sit on a floating wrist: three slide joints (world x, y, z) and three hinges composed as
 R = Rz(a) Rx(b) Ry(c) (intrinsic), each driven by a force-limited position actuator. The chain is
 singular only when the hand's y axis is vertical, which no grasp here asks for (y is the closing
 direction of the Barrett fingers and the finger direction of the Karlsruhe hand; both stay horizontal).
 
-Hand frame (both hands): see `sim.robot_hand_specs` (origin at the palm surface centre, +z the palm
-normal).
+Hand frame (both hands): origin at the centre of the palm surface, +z the palm normal (the approach
+direction: the object lies at +z when the hand grasps it), x the axis a wrap closes around.
 
-Geometry: every hand geom is a capsule, so every physics backend collides it with the objects of
-`sim.grasp_objects` (cylinders, spheres, a box) and the plane table (MJX-JAX 3.17 has capsule against
+Geometry: every hand geom is a capsule, so every physics backend collides it with the grasp objects
+(`GRASP_OBJECTS`: cylinders, spheres, a box) and the plane table (MJX-JAX 3.17 has capsule against
 all of those). Collision bits: the hand touches objects and the table, objects touch the table, nothing
 touches itself (contype/conaffinity below), so the fingers pass through each other but never through
 an object. One geom per link, so a link is one contact-sensor target.
@@ -113,12 +113,20 @@ def _finger_xml(f: Finger, spec: HandSpec) -> tuple[str, list[str]]:
 
 
 def hand_body_xml(hand: str, joints_xml: str = "") -> tuple[str, str, str]:
-    """The hand of `hand` as an MJCF body fragment named "hand" (hand frame: see `sim.robot_hand_specs`),
-    to be placed inside a parent body: (body MJCF, finger actuator MJCF, equality MJCF).
+    """The robot hand as an MJCF body fragment named "hand", to be placed inside a parent body.
 
-    `joints_xml` goes first in the body (the floating wrist's joints here; empty on an arm's flange,
-    which places the hand with the parent's pose). Every hand body has gravcomp="1": its weight is
-    compensated, whatever carries it.
+    Every hand body has gravcomp="1": its weight is compensated, whatever carries it.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        joints_xml: MJCF that goes first in the body (the floating wrist's joints here; empty on an
+            arm's flange, which places the hand with the parent's pose).
+
+    Returns:
+        (body MJCF, finger actuator MJCF, equality MJCF).
+
+    Raises:
+        ValueError: an unknown hand.
     """
     spec = hand_spec(hand)
     fingers, equalities = [], []
@@ -179,10 +187,19 @@ def _sensor_xml(spec: HandSpec) -> str:
 
 
 def grasp_scene_xml(hand: str) -> str:
-    """MJCF of `hand` on its floating wrist, a plane table at z = 0 and the six grasp objects.
+    """MJCF of the robot hand on its floating wrist, a plane table at z = 0 and the six grasp objects.
 
     Object `object{g}` (g a grasp class) has a free joint; by default every object is parked in the air
-    at x = 3 + k m (k its index in `GRASP_CLASSES`); `place_objects` puts one on the table.
+    at x = 3 + k m (k its index in `GRASP_CLASSES`); a trial's starting qpos puts one on the table.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+
+    Returns:
+        The MJCF text.
+
+    Raises:
+        ValueError: an unknown hand.
     """
     spec = hand_spec(hand)
     hand_body, actuators, equalities = _hand_xml(spec)
@@ -225,23 +242,40 @@ class SceneLayout:
     """Where things are in a compiled grasp scene's `qpos`, `ctrl` and `sensordata` (all numpy ints).
 
     L links (palm first), G objects (`GRASP_CLASSES` order), U actuators (6 wrist, then hand DoF).
+
+    Attributes:
+        hand: "barrett" or "karlsruhe".
+        n_links: L.
+        touch: (L,) sensordata index of each link's touch sensor.
+        contact: (L, G) start of each (link, object) contact sensor: found, pos (3), normal (3).
+        object_pos: (G,) start of each object's framepos (3).
+        object_quat: (G,) start of each object's framequat (4).
+        palm_pos: start of the palm's framepos (3).
+        palm_quat: start of the palm's framequat (4).
+        object_qpos: (G,) start of each object's free joint in qpos (7).
+        object_body: (G,) body id of each object.
+        wrist_qpos: (6,) qpos index of the wrist joints.
+        hand_qpos: (n_dof,) qpos index of the joint each hand actuator drives.
+        n_ctrl: U.
+        link_finger: (L,) 0 palm, k finger k.
+        fingertip_site: (F,) site ids of the fingertips.
     """
 
     hand: str
     n_links: int
-    touch: np.ndarray           # (L,) sensordata index of each link's touch sensor
-    contact: np.ndarray         # (L, G) start of each (link, object) contact sensor: found, pos(3), normal(3)
-    object_pos: np.ndarray      # (G,) start of each object's framepos (3)
-    object_quat: np.ndarray     # (G,) start of each object's framequat (4)
+    touch: np.ndarray
+    contact: np.ndarray
+    object_pos: np.ndarray
+    object_quat: np.ndarray
     palm_pos: int
     palm_quat: int
-    object_qpos: np.ndarray     # (G,) start of each object's free joint in qpos (7)
-    object_body: np.ndarray     # (G,) body id of each object
-    wrist_qpos: np.ndarray      # (6,) qpos index of the wrist joints
-    hand_qpos: np.ndarray       # (n_dof,) qpos index of the joint each hand actuator drives
+    object_qpos: np.ndarray
+    object_body: np.ndarray
+    wrist_qpos: np.ndarray
+    hand_qpos: np.ndarray
     n_ctrl: int
-    link_finger: np.ndarray     # (L,) 0 palm, k finger k
-    fingertip_site: np.ndarray  # (F,) site ids of the fingertips
+    link_finger: np.ndarray
+    fingertip_site: np.ndarray
 
 
 def scene_layout(model: mujoco.MjModel, hand: str) -> SceneLayout:
@@ -276,15 +310,38 @@ def scene_layout(model: mujoco.MjModel, hand: str) -> SceneLayout:
 
 
 def grasp_model(hand: str) -> tuple[mujoco.MjModel, SceneLayout]:
-    """Compile `grasp_scene_xml(hand)`; return the model and its layout."""
+    """Compile the grasp scene of MAP §III: the robot hand on a floating wrist, a table, six objects.
+
+    See the module docstring for the scene (joints, actuators, tactile and contact sensors).
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+
+    Returns:
+        A tuple (model, layout), a fresh model each call.
+
+    Raises:
+        ValueError: an unknown hand.
+    """
     model = mujoco.MjModel.from_xml_string(grasp_scene_xml(hand))
     return model, scene_layout(model, hand)
 
 
 def hand_joint_qpos(model: mujoco.MjModel, hand: str, targets: np.ndarray) -> np.ndarray:
-    """Hand joint positions (nq,) that satisfy the couplings for hand-DoF `targets` (n_dof,).
+    """Joint positions that put the hand's DoF at given targets, with the couplings satisfied.
 
     Starting the fingers in their preshape (equality constraints satisfied) avoids a violent first step.
+
+    Args:
+        model: a compiled model with the hand (the grasp scene or the manipulator scene).
+        hand: "barrett" or "karlsruhe".
+        targets: (n_dof,) hand-DoF targets (rad), `HandSpec.dofs` order.
+
+    Returns:
+        (nq,) qpos: the model's `qpos0` with the hand's joints set.
+
+    Raises:
+        ValueError: an unknown hand.
     """
     spec = hand_spec(hand)
     qpos = model.qpos0.copy()

@@ -1,6 +1,7 @@
 """Batched MJX rollouts: `vmap` over worlds, `lax.scan` over steps (the MJX / Playground style).
 
-The entry points `worlds_from_qpos` and `batched_rollout` check their input as `rollout_grasps` does
+The entry points `worlds_from_qpos` and `batched_rollout` check their input as
+`sim.grasping.rollout_grasps` does
 (before anything is traced or compiled): the model is an `mjx.Model` (MJX-JAX with the Euler or
 implicitfast integrator for `batched_rollout`), `qpos` is a non-empty (W, nq) real array, finite and
 within the model's float dtype, `worlds` a batch of W `mjx.Data` of that model with finite qpos, qvel,
@@ -29,6 +30,16 @@ _INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_EULER): mjx.euler,
 def mjx_step(mjx_model: mjx.Model, data: mjx.Data) -> mjx.Data:
     """`mjx.step` for MJX's JAX implementation, with every LAPACK call of the step on one dependency chain.
 
+    Args:
+        mjx_model: an MJX-JAX model with the Euler or implicitfast integrator.
+        data: the state of one world (vmap it for a batch).
+
+    Returns:
+        The state after one step.
+
+    Raises:
+        ValueError: an integrator other than Euler and implicitfast.
+
     Same arithmetic as `mjx.step` (forward dynamics, then the Euler or implicitfast integrator); only
     the order XLA may run it in changes. Why: both integrators Cholesky-factorise a matrix built from
     the mass matrix (M + h·damping, M - h·dqfrc/dqvel), which is known before the constraint solver
@@ -41,8 +52,7 @@ def mjx_step(mjx_model: mjx.Model, data: mjx.Data) -> mjx.Data:
     multiplication by zero; a `lax.optimization_barrier` does not survive XLA:CPU's optimisation
     passes), so the integrator's factorisation starts after the solver. The other factorisations of
     a step are already ordered: the solver starts from `qacc_smooth`, which needs the factorised M.
-    `tests/test_mjx_step.py` checks the order in XLA's optimized program. Integrators other than
-    Euler and implicitfast: ValueError.
+    `tests/test_mjx_step.py` checks the order in XLA's optimized program.
     """
     integrate = _INTEGRATORS.get(int(mjx_model.opt.integrator))
     if integrate is None:
@@ -124,10 +134,17 @@ def _check_worlds(mjx_model, worlds):
 
 
 def worlds_from_qpos(mjx_model: mjx.Model, qpos: jax.Array) -> mjx.Data:
-    """A batch of MJX data, one world per row of `qpos` (W, nq), at rest, forward kinematics done.
+    """A batch of MJX worlds at rest, one per row of joint positions, forward kinematics done.
 
-    qpos: non-empty (W, nq) real and finite (ValueError naming it otherwise), computed in the model's
-    float dtype.
+    Args:
+        mjx_model: an `mjx.Model` (`mjx.put_model(mj_model)`).
+        qpos: (W, nq) non-empty, real and finite, computed in the model's float dtype.
+
+    Returns:
+        The batch of W `mjx.Data`.
+
+    Raises:
+        ValueError: a model that is not an `mjx.Model`, or bad qpos, naming the argument.
     """
     _check_model(mjx_model)
     dtype = np.dtype(mjx_model.qpos0.dtype)
@@ -145,11 +162,24 @@ def _check_rollout(mjx_model, worlds, n_steps, record_every):
     return mjx_model, worlds, n_steps, record_every
 
 
-def batched_rollout(mjx_model: mjx.Model, worlds: mjx.Data, n_steps: int, record_every: int = 1):
-    """Step every world `n_steps` times; return (final worlds, qpos trajectory (n_steps // record_every, W, nq)).
+def batched_rollout(mjx_model: mjx.Model, worlds: mjx.Data, n_steps: int,
+                    record_every: int = 1) -> tuple[mjx.Data, jax.Array]:
+    """Step every world of a batch `n_steps` times, recording the joint positions.
 
-    `record_every` thins the recorded trajectory so long rollouts do not hold every step. Inputs are
-    checked (module doc); `batched_rollout.lower(...)` checks them too and lowers the jitted program.
+    Inputs are checked (module docstring); `batched_rollout.lower(...)` checks them too and lowers the
+    jitted program.
+
+    Args:
+        mjx_model: an MJX-JAX model with the Euler or implicitfast integrator.
+        worlds: a batch of W `mjx.Data` of that model (`worlds_from_qpos`).
+        n_steps: steps (a positive multiple of `record_every`).
+        record_every: record every this many steps, so long rollouts do not hold every step.
+
+    Returns:
+        (final worlds, qpos trajectory (n_steps // record_every, W, nq)).
+
+    Raises:
+        ValueError: bad input, naming the argument.
     """
     return _batched_rollout(*_check_rollout(mjx_model, worlds, n_steps, record_every))
 

@@ -1,15 +1,15 @@
-"""The robot's task controller (issue 21, "The robot"): pick one object up with the MAP §III grasp strategy
-on the WAM-like arm of `sim.manipulator`, carry it to a place on the table, put it down upright, release
-it. Native MuJoCo on the CPU, one world, a Python control loop at `CONTROL_DT_S`.
+"""The robot's task controller: pick one object up with the MAP §III grasp strategy on the WAM-like arm
+of `sim.robot.manipulator_model`, carry it to a place on the table, put it down upright, release it.
+Native MuJoCo on the CPU, one world, a Python control loop at `CONTROL_DT_S`.
 
 What it does, in order (`run_task(spec)` -> `TaskResult`):
 
-1. Plan (MAP §III, seed file 000_a44a81cd5fd37a97.txt): `sim.grasp_strategy.plan_trials` gives the
+1. Plan (MAP §III): `sim.grasping.plan_trials` gives the
    robot preshape of the human grasp class through the mapping table (`robot_grasp_for`), the hand
    orientation imitating the human hand's (palm normal -> approach, thumb axis -> wrap axis; volar
    grasps from the top or the side, open-loop grasps to a predefined distance), the approach start
    and goal, in the object's frame. The plan is turned about the vertical by the yaw that best aligns
-   the canonical human hand (`sim.human_grasps.hand_pose_in_world`) with the recognised one
+   the canonical human hand (`sim.hands.hand_pose_in_world`) with the recognised one
    (`TaskSpec.hand_rot`, world), and moved onto the object. The palm poses above the pre-grasp, at
    the pre-grasp, grasp, lift, above the place, at the place and retracted are checked with one
    batched `solve_ik`, at that yaw and at turns of `YAW_STEPS_DEG` (up to 90 degrees) from it, each
@@ -25,13 +25,13 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    the pre-grasp pose (the open fingers clear the object). The path is not checked for collisions
    (a joint-space move from home to the checked configuration above the pre-grasp was tried and was
    no better on the default three-object scene).
-3. Grasp and lift: `sim.grasp_strategy.controller_step` itself (the floating-hand study's controller,
+3. Grasp and lift: `sim.grasping.controller_step` itself (the floating-hand study's controller,
    jitted, B = 1) drives the palm position and the fingers: approach along the planned line, stop at
    the first touch for volar grasps and, if it is not on the palm and `tactile` is on, retract and
    replan towards the contact (MAP §III's correction), close, lift 10 cm, hold briefly. Its sensors
    (touch per hand link, contact with the object, object and palm frames) are added to the
-   manipulator scene in the grasp scene's layout (`sim.robot_hands.SceneLayout`), and
-   `sim.grasp_rollout.peak_touch` reads them per control period exactly as in the grasp study.
+   manipulator scene in the grasp scene's layout (`sim.hands.SceneLayout`), and
+   `sim.grasping.peak_touch` reads them per control period exactly as in the grasp study.
 4. Carry the palm horizontally (at the lift height, the orientation kept) until the object is above
    the place, the fingers' targets `GRIP_MARGIN` past the positions at which they hold it (a lighter
    grip than the grasp controller's); turn the hand about the object's centre so that the held object
@@ -60,7 +60,7 @@ straight carry can sweep other objects off the table, the arm may brush them), n
 failure, no change of hand orientation between grasp and place (a place that needs one is
 unreachable), no force control while lowering (it stops at the first object-table contact). The plan takes the preshape and the approach from
 the grasp class and the stand-off, the stop and the centre height from the handled object's geometry
-(`plan_trials(..., objects=)`; the grasp study plans each class for its own object). Recognised orientation: only its yaw
+(`plan_trials(..., objects=...)`; the grasp study plans each class for its own object). Recognised orientation: only its yaw
 about the vertical is used (MAP §III snaps the approach to top or side anyway).
 """
 from __future__ import annotations
@@ -71,9 +71,10 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation, Slerp
 
-from lfd_common import as_array, check_choice, check_int, check_real
+from lfd_common import as_array, check_int
 from sim._src.grasp_objects import GRASP_CLASSES, GRASP_NAMES, GRASP_OBJECTS, robot_grasp_for
 from sim._src.grasp_rollout import LIFT_SUCCESS_M
 from sim._src.grasp_strategy import CONTROL_DT_S, DONE, HORIZON_S, LIFT, initial_state
@@ -82,10 +83,10 @@ from sim._src.manipulator_ik import forward_kinematics
 from sim._src.robot_hands import HAND_NAMES
 from sim._src.task_motion import (TaskSim, held_links, hold, min_jerk, move, object_tilt, ramp_fingers,
     retarget_path, tilt_correction, upright_axis)
-from sim._src.task_plan import (ABOVE_M, RETRACT_M, RETRACT_UP_M, TaskSpec, check_spec, grasp_controller,
-    on_table, reachable_plan, task_scene)
+from sim._src.task_plan import (ABOVE_M, RETRACT_M, RETRACT_UP_M, TaskOptions, TaskSpec, check_spec,
+    grasp_controller, on_table, reachable_plan, task_scene)
 
-__all__ = ["STAGES", "TaskResult", "TaskSpec", "run_task", "task_sweep", "task_table"]
+__all__ = ["STAGES", "TaskOptions", "TaskResult", "TaskSpec", "run_task", "task_sweep", "task_table"]
 
 STAGES: tuple[str, ...] = ("ik_unreachable", "approach", "grasp", "lift", "carry", "place")
 PLACE_TOL_M = 0.05
@@ -103,18 +104,26 @@ APPROACH_TOL_M = 0.02        # the palm within this of the pre-grasp pose after 
 
 
 class TaskResult(NamedTuple):
-    """The outcome of one task (numpy / Python values).
+    """The outcome of one task of `run_task` (numpy / Python values).
 
-    success: placed within `PLACE_TOL_M`, upright and released; failed_stage: the first stage that
-    failed (one of `STAGES`), "" on success; object_pos (3,) the handled object's final position
-    (world); upright, released: the two final checks; place_error_m: x-y distance to the place;
-    n_corrections: tactile corrections made; yaw_deg: how far (about the vertical) the executed hand
-    orientation is turned from the preferred one (`YAW_STEPS_DEG`); tilt_deg: the approach's downward
-    tilt (`TILT_STEPS_DEG`); others_moved_m: how far (x-y) the
-    other objects were pushed, the most (the arm has no collision-aware path; not part of `success`);
-    stage_sim_s / stage_wall_s: simulated and wall-clock
-    seconds per stage that ran ("plan", "approach", "grasp", "carry", "place"; "grasp" includes the
-    lift); frames (F, H, W, 3) uint8 of the fixed camera, or None when not rendered; fps: their rate.
+    Attributes:
+        success: placed within `PLACE_TOL_M`, upright and released.
+        failed_stage: the first stage that failed (one of `STAGES`), "" on success.
+        object_pos: (3,) the handled object's final position (world).
+        upright: the object stands upright (its z axis within `UPRIGHT_TOL_DEG` of vertical).
+        released: no contact with the robot.
+        place_error_m: x-y distance to the place.
+        n_corrections: tactile corrections made.
+        yaw_deg: how far (about the vertical) the executed hand orientation is turned from the
+            preferred one (`YAW_STEPS_DEG`).
+        tilt_deg: the approach's downward tilt (`TILT_STEPS_DEG`).
+        stage_sim_s: simulated seconds per stage that ran ("plan", "approach", "grasp", "carry",
+            "place"; "grasp" includes the lift).
+        stage_wall_s: wall-clock seconds per stage that ran.
+        frames: (F, H, W, 3) uint8 of the fixed camera, or None when not rendered.
+        fps: their rate.
+        others_moved_m: how far (x-y) the other objects were pushed, the most (the arm has no
+            collision-aware path; not part of `success`).
     """
 
     success: bool
@@ -133,28 +142,33 @@ class TaskResult(NamedTuple):
     others_moved_m: float = 0.0
 
 
+def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: int = 0,
+             options: TaskOptions = TaskOptions()) -> TaskResult:
+    """Run one pick-and-place task with the MAP §III grasp strategy on the native MuJoCo backend (CPU).
 
+    See the module docstring for what it does, stage by stage, and what counts as success.
 
-def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str = "map2009", render: bool = False,
-             camera: str = "front", width: int = 320, height: int = 240, fps: float = 20.0) -> TaskResult:
-    """Run one pick-and-place task on the native MuJoCo backend (CPU); see the module docstring.
+    Args:
+        spec: the task.
+        approach_path: (T, 3) a demonstrated reach (world m) whose shape the palm follows from the
+            home pose to above the pre-grasp pose (`retarget_path` moves it onto those two); None: a
+            straight line.
+        seed: the grasp plan's hand-pose noise (`plan_trials`), >= 0.
+        options: the grasp mapping and the recorded video (`TaskOptions`).
 
-    approach_path (T, 3): a demonstrated reach (world m) whose shape the palm follows from the home
-    pose to above the pre-grasp pose (`sim.task_motion.retarget_path` moves it onto those two; None:
-    a straight line); seed: the grasp plan's hand-pose noise (`plan_trials`); mapping: the
-    human-to-robot grasp mapping ("map2009" or "iros2008"); render: record frames of `camera` (a camera
-    of the manipulator scene) at `width` x `height` and `fps` frames per simulated second (EGL by
-    default, `sim.setup_rendering`). ValueError naming the argument for bad input; a place the arm
-    cannot reach (or off the table) is a failed result at "ik_unreachable", not an exception.
+    Returns:
+        The `TaskResult`. A place the arm cannot reach (or off the table) is a failed result at
+            "ik_unreachable", not an exception.
+
+    Raises:
+        ValueError: bad input, naming the argument (or the field of `spec`; `camera` for a camera the
+            manipulator scene does not have).
     """
     spec = check_spec(spec)
     seed = check_int(seed, "seed", min_value=0)
-    mapping = check_choice(mapping, "mapping", ("map2009", "iros2008"))
-    if not isinstance(render, (bool, np.bool_)):
-        raise ValueError(f"render: expected a bool, got {render!r}")
-    width = check_int(width, "width", min_value=16, max_value=640)
-    height = check_int(height, "height", min_value=16, max_value=480)
-    fps = check_real(fps, "fps", min_value=1.0, max_value=1.0 / CONTROL_DT_S)
+    if not isinstance(options, TaskOptions):
+        raise ValueError(f"options: expected a TaskOptions, got {type(options).__name__}")
+    mapping, render, camera, fps = options.mapping, options.render, options.camera, options.fps
     path = None if approach_path is None else as_array(approach_path, "approach_path", shape=(None, 3))
     scene = task_scene(spec.hand, spec.objects, tuple(map(tuple, spec.object_xy.tolist())))
     if camera not in [scene.model.camera(i).name for i in range(scene.model.ncam)]:
@@ -171,7 +185,7 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
 
     params = plan.params
     open_, closed = params.open_[0].astype(float), params.closed[0].astype(float)
-    sim = TaskSim(scene, spec, open_, render, camera, width, height, fps)
+    sim = TaskSim(scene, spec, open_, options)
     stage = {"name": "approach", "t": 0.0, "wall": time.perf_counter()}
 
     def next_stage(name: str):
@@ -190,9 +204,8 @@ def run_task(spec: TaskSpec, *, approach_path=None, seed: int = 0, mapping: str 
         frames = np.stack(sim.frames) if sim.frames else None
         others = sim.others_moved()
         sim.close()
-        return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, plan.tilt_deg, sim_s, wall_s, frames,
-                          fps,
-                          others)
+        return TaskResult(ok, failed, pos, upright, released, err, n_corr, plan.yaw_deg, plan.tilt_deg, sim_s, wall_s,
+                          frames, fps, others)
 
     n_corr = 0
     held_obj = GRASP_OBJECTS[spec.objects[spec.target]]
@@ -301,10 +314,22 @@ SWEEP_PLACES = ((0.20, -0.40), (-0.25, -0.35), (0.05, -0.60))
 def task_sweep(hands: Sequence[str] = HAND_NAMES, grasps: Sequence[int] = GRASP_CLASSES,
                places: Sequence[tuple[float, float]] = SWEEP_PLACES, tactile: bool = True,
                progress: bool = True) -> list[dict]:
-    """Every (hand, grasp class, place): the grasp class's own object alone at `SWEEP_OBJECT_XY`,
-    canonical human hand orientation. Returns one dict per task (hand, grasp, place, success,
-    failed_stage, place_error_m, upright, released, wall_s). Run it with
-    `python -c "from sim.task_controller import *; print(task_table(task_sweep()))"`."""
+    """Run every (hand, grasp class, place) task: the grasp class's own object alone, canonical hand.
+
+    The object stands at `SWEEP_OBJECT_XY`; the human hand has the canonical orientation. Run it with
+    `python -c "from sim.robot import task_sweep, task_table; print(task_table(task_sweep()))"`.
+
+    Args:
+        hands: the robot hands.
+        grasps: the grasp classes.
+        places: the places (x, y, world m).
+        tactile: MAP §III's tactile correction for volar grasps.
+        progress: print one line per task.
+
+    Returns:
+        One dict per task: hand, grasp, place, success, failed_stage, place_error_m, upright,
+            released, wall_s.
+    """
     rows = []
     for hand in hands:
         for g in grasps:
@@ -326,8 +351,14 @@ def task_sweep(hands: Sequence[str] = HAND_NAMES, grasps: Sequence[int] = GRASP_
 
 
 def task_table(rows: list[dict]) -> str:
-    """A markdown table of `task_sweep`'s rows: successes per grasp class and hand, the robot preshape,
-    the stages that failed."""
+    """A markdown table of `task_sweep`'s rows.
+
+    Args:
+        rows: `task_sweep`'s rows.
+
+    Returns:
+        The table: successes per grasp class and hand, the robot preshape, the stages that failed.
+    """
     hands = sorted({r["hand"] for r in rows}, key=HAND_NAMES.index)
     lines = ["| grasp | " + " | ".join(hands) + " |", "|---|" + "---|" * len(hands)]
     for g in sorted({r["grasp"] for r in rows}):

@@ -1,4 +1,4 @@
-"""The motion half of the robot's task controller (issue 21; `sim.task_controller` runs it): one native
+"""The motion half of the robot's task controller (`run_task` runs it): one native
 MuJoCo world stepped by control periods (`TaskSim`: palm pose -> tracking IK -> the arm's servo targets,
 the grasp study's sensors read per period), min-jerk moves along polylines, holds, and the geometry of
 standing a held object upright."""
@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation, Slerp
 
 from sim._src.grasp_rollout import SUBSTEPS, peak_touch
@@ -14,7 +15,7 @@ from sim._src.manipulator import HOME_Q, manipulator_qpos
 from sim._src.manipulator_ik import solve_ik
 from sim._src.render import setup_rendering
 from sim._src.robot_hands import SceneLayout
-from sim._src.task_plan import TaskScene, TaskSpec
+from sim._src.task_plan import TaskOptions, TaskScene, TaskSpec
 
 TRACK_ITERATIONS = 10        # DLS steps per control step of the tracking IK
 
@@ -25,10 +26,23 @@ def min_jerk(n: int) -> np.ndarray:
 
 
 class TaskSim:
-    """One world stepped by control periods: palm pose -> tracking IK -> arm servo targets."""
+    """One native MuJoCo world of a task, stepped by control periods: palm pose -> tracking IK -> arm servos.
 
-    def __init__(self, scene: TaskScene, spec: TaskSpec, open_: np.ndarray, render: bool, camera, width, height,
-                 fps):
+    Every palm pose becomes arm joint targets by one damped-least-squares solve per control step
+    (`solve_ik`, one start, warm-started at the last target); the grasp study's sensors are read per
+    control period (`sim.grasping.peak_touch`). The arm starts at `HOME_Q`.
+
+    Args:
+        scene: the task's scene (`task_scene`).
+        spec: the task (checked).
+        open_: (D,) the hand's starting targets (the open preshape).
+        options: `options.render`, `camera`, `width`, `height` and `fps` set the recorded video
+            (`TaskOptions`).
+    """
+
+    def __init__(self, scene: TaskScene, spec: TaskSpec, open_: np.ndarray, options: TaskOptions = TaskOptions()):
+        render, camera, width, height, fps = (options.render, options.camera, options.width, options.height,
+                                              options.fps)
         self.scene, self.model = scene, scene.model
         self.data = mujoco.MjData(self.model)
         arm = scene.arm
@@ -56,7 +70,13 @@ class TaskSim:
         self.next_frame += self.frame_dt
 
     def step(self, pos: np.ndarray, rot: np.ndarray, fingers: np.ndarray) -> None:
-        """One control period with the palm commanded to (pos (3,), rot (3, 3)) and the hand to fingers (D,)."""
+        """One control period with the palm commanded to a pose and the hand to targets.
+
+        Args:
+            pos: (3,) the palm's position (world m).
+            rot: (3, 3) its rotation.
+            fingers: (D,) the hand's targets.
+        """
         ik = solve_ik(self.scene.chain, pos[None], rot[None], self.q_cmd[None], n_restarts=1, rounds=1,
                       iterations=TRACK_ITERATIONS)
         self.q_cmd = np.asarray(ik.q[0], float)
@@ -77,22 +97,45 @@ class TaskSim:
             self._grab()
 
     def palm(self) -> np.ndarray:
+        """The palm centre's position now.
+
+        Returns:
+            (3,) world m.
+        """
         return self.data.site_xpos[self.scene.arm.palm_site].copy()
 
     def hand_q(self) -> np.ndarray:
-        """(D,) the hand's actuated joint positions now."""
+        """The hand's actuated joint positions now.
+
+        Returns:
+            (D,) radians, `HandSpec.dofs` order.
+        """
         return self.data.actuator_length[self.scene.arm.hand_ctrl].copy()
 
     def obj_pos(self) -> np.ndarray:
+        """The handled object's position now.
+
+        Returns:
+            (3,) world m.
+        """
         return self.data.xpos[self.scene.arm.object_body[self.target]].copy()
 
     def others_moved(self) -> float:
-        """How far (x-y, m) the objects other than the handled one have moved since the start, the most."""
+        """How far the objects other than the handled one have moved since the start, the most.
+
+        Returns:
+            The largest x-y displacement (m); 0 without other objects.
+        """
         if not self.others:
             return 0.0
         return float(np.max(np.linalg.norm(self.data.xpos[self.others, :2] - self.others_start[:, :2], axis=1)))
 
     def obj_rot(self) -> np.ndarray:
+        """The handled object's rotation now.
+
+        Returns:
+            (3, 3) rotation matrix (columns: its axes in the world).
+        """
         return self.data.xmat[self.scene.arm.object_body[self.target]].reshape(3, 3).copy()
 
     def _pairs(self) -> np.ndarray:
@@ -100,17 +143,33 @@ class TaskSim:
         n = self.data.ncon
         return np.stack([c.geom1[:n], c.geom2[:n]], -1) if n else np.zeros((0, 2), int)
 
-    def contact(self, geoms_a, geoms_b) -> bool:
-        """Whether any geom of `geoms_a` touches any of `geoms_b` now."""
+    def contact(self, geoms_a: ArrayLike, geoms_b: ArrayLike) -> bool:
+        """Whether any geom of `geoms_a` touches any of `geoms_b` now.
+
+        Args:
+            geoms_a: geom ids.
+            geoms_b: geom ids.
+
+        Returns:
+            True if some contact pairs one of each.
+        """
         pairs = self._pairs()
         a, b = np.isin(pairs, geoms_a), np.isin(pairs, geoms_b)
         return bool(np.any((a[:, 0] & b[:, 1]) | (a[:, 1] & b[:, 0])))
 
-    def touches(self, geoms) -> bool:
-        """Whether the handled object touches any of `geoms` now."""
+    def touches(self, geoms: ArrayLike) -> bool:
+        """Whether the handled object touches any of `geoms` now.
+
+        Args:
+            geoms: geom ids.
+
+        Returns:
+            True if it does.
+        """
         return self.contact([self.obj_geom], geoms)
 
-    def close(self):
+    def close(self) -> None:
+        """Free the renderer's GL context, if there is one."""
         if self.renderer is not None:
             self.renderer.close()
 
@@ -131,12 +190,22 @@ def _polyline(points: np.ndarray, speed: float) -> np.ndarray:
     return np.stack([np.interp(s, arc, points[:, i]) for i in range(3)], -1)
 
 
-def retarget_path(path: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """A demonstrated movement (T, 3) (world m, e.g. a PHMM-synthesised reach) moved onto the robot's
-    own start and end (3,) -> (T, 3): turned about the vertical so that its horizontal chord points
-    along the robot's, shifted to `start`, and what is then left between its end and `end` spread over
-    it in proportion to arc length. The vertical profile (the lift over the table) and the sideways
-    bulge relative to the chord are kept; the endpoints are the robot's exactly."""
+def retarget_path(path: ArrayLike, start: ArrayLike, end: ArrayLike) -> np.ndarray:
+    """A demonstrated movement moved onto the robot's own start and end (PHMM synthesis -> robot).
+
+    The path is turned about the vertical so that its horizontal chord points along the robot's,
+    shifted to `start`, and what is then left between its end and `end` spread over it in proportion
+    to arc length. The vertical profile (the lift over the table) and the sideways bulge relative to
+    the chord are kept; the endpoints are the robot's exactly.
+
+    Args:
+        path: (T, 3) a demonstrated movement (world m, e.g. a PHMM-synthesised reach).
+        start: (3,) the robot's start.
+        end: (3,) the robot's end.
+
+    Returns:
+        (T, 3) the retargeted path.
+    """
     path = np.asarray(path, np.float64)
     start, end = np.asarray(start, np.float64), np.asarray(end, np.float64)
     rel = path - path[0]

@@ -1,12 +1,13 @@
-"""The planning half of the robot's task controller (issue 21; `sim.task_controller` runs it): the task
-(`TaskSpec`) and its checks, the manipulator scene with the grasp study's sensors (`task_scene`), the
-grasp controller jitted for it, and the MAP §III plan (seed file 000_a44a81cd5fd37a97.txt) turned about
-the vertical to imitate the human hand and checked for reach (batched IK) and collisions at its key
-poses (`reachable_plan`)."""
+"""The planning half of the robot's task controller (`run_task` runs it): the task (`TaskSpec`), its
+options (`TaskOptions`) and their checks, the manipulator scene with the grasp study's sensors
+(`task_scene`), the grasp controller jitted for it, and the MAP §III plan turned about the vertical to
+imitate the human hand and checked for reach (batched IK) and collisions at its key poses
+(`reachable_plan`)."""
 from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import jax
@@ -14,9 +15,10 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from lfd_common import as_array, check_choice, check_int, quat_to_matrix
+from lfd_common import as_array, check_choice, check_int, check_real, quat_to_matrix
 from sim._src.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, check_grasp_class
-from sim._src.grasp_strategy import TrialParams, controller_step, object_extent, plan_trials
+from sim._src.grasp_strategy import (CONTROL_DT_S, MAPPINGS, PlanOptions, TrialParams, controller_step,
+    object_extent, plan_trials)
 from sim._src.human_grasps import hand_pose_in_world
 from sim._src.manipulator import (BASE_POS, DEFAULT_OBJECT_XY, DEFAULT_OBJECTS, HOME_Q, manipulator_qpos,
     manipulator_scene_xml, scene_layout as manipulator_layout)
@@ -31,16 +33,24 @@ TABLE = TableSpec()
 
 
 class TaskSpec(NamedTuple):
-    """One pick-and-place task.
+    """One pick-and-place task: what stands where, what to pick up with which grasp, where to put it.
 
-    objects: grasp-object classes of `sim.grasp_objects` standing on the table (K of them, as
-    `sim.manipulator.manipulator_scene_xml`'s `objects`); object_xy (K, 2) world m; target: index of
-    the object to handle; grasp: the human grasp class (1, 2, 4, 9, 10, 12); hand_rot (3, 3): the
-    human hand's orientation (world; columns the hand axes of `sim.human_hand`), None: the grasp's
-    canonical one (`sim.human_grasps.hand_pose_in_world`, given in the object's frame) as a person
-    sitting where the robot stands would hold it: turned about the vertical so that the canonical side
-    approach points from the arm's base to the object; place_xy (2,) world m: where to put it
-    down; tactile: MAP §III's tactile correction for volar grasps; hand: "barrett" or "karlsruhe".
+    `run_task` checks it (ValueError naming the field).
+
+    Attributes:
+        objects: grasp-object classes (`sim.grasping.GRASP_OBJECTS`) standing on the table (K of
+            them, as `manipulator_scene_xml`'s `objects`).
+        object_xy: (K, 2) where they stand (world m).
+        target: index of the object to handle.
+        grasp: the human grasp class (1, 2, 4, 9, 10, 12).
+        place_xy: (2,) where to put it down (world m).
+        hand_rot: (3, 3) the human hand's orientation (world; columns the hand axes of the human hand,
+            `sim.hands.hand_body_xml`); None: the grasp's canonical one
+            (`sim.hands.hand_pose_in_world`, given in the object's frame) as a person sitting where
+            the robot stands would hold it: turned about the vertical so that the canonical side
+            approach points from the arm's base to the object.
+        tactile: MAP §III's tactile correction for volar grasps.
+        hand: "barrett" or "karlsruhe".
     """
 
     objects: tuple[int, ...] = DEFAULT_OBJECTS
@@ -53,12 +63,49 @@ class TaskSpec(NamedTuple):
     hand: str = "barrett"
 
 
+@dataclass(frozen=True)
+class TaskOptions:
+    """How `run_task` runs a task: the grasp mapping, and the video it records.
+
+    Fields are checked when the object is made (the camera's name when the task's scene is built).
+    Change one with `dataclasses.replace(options, ...)`.
+
+    Attributes:
+        mapping: the human-to-robot grasp mapping, "map2009" (MAP Fig. 2) or "iros2008" (GRASP
+            Fig. 2, Barrett hand only).
+        render: record frames of `camera` (EGL by default, `sim.setup_rendering`).
+        camera: a camera of the manipulator scene ("front").
+        width: frame width (px, in [16, 640]).
+        height: frame height (px, in [16, 480]).
+        fps: frames per simulated second (in [1, 1 / CONTROL_DT_S]).
+
+    Raises:
+        ValueError: a field out of its range or of the wrong type, naming the field.
+    """
+
+    mapping: str = "map2009"
+    render: bool = False
+    camera: str = "front"
+    width: int = 320
+    height: int = 240
+    fps: float = 20.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "mapping", check_choice(self.mapping, "mapping", MAPPINGS))
+        if not isinstance(self.render, (bool, np.bool_)):
+            raise ValueError(f"render: expected a bool, got {self.render!r}")
+        object.__setattr__(self, "render", bool(self.render))
+        if not isinstance(self.camera, str):
+            raise ValueError(f"camera: expected a camera's name, got {self.camera!r}")
+        object.__setattr__(self, "width", check_int(self.width, "width", min_value=16, max_value=640))
+        object.__setattr__(self, "height", check_int(self.height, "height", min_value=16, max_value=480))
+        object.__setattr__(self, "fps", check_real(self.fps, "fps", min_value=1.0, max_value=1.0 / CONTROL_DT_S))
 
 
 # ---------------------------------------------------------------- the scene with the grasp sensors
 
 def _sensor_xml(links: Sequence[str], n_objects: int) -> str:
-    """The grasp scene's sensors (`sim.robot_hands`) for a manipulator scene's objects "object0" ...:
+    """The grasp scene's sensors (`sim.hands.grasp_model`) for a manipulator scene's objects "object0" ...:
     touch per link site, contact per (link, object), object and palm frames."""
     touch = "".join(f'<touch name="touch_{ln}" site="{ln}"/>' for ln in links)
     contact = "".join(f'<contact name="contact_{ln}_{k}" geom1="{ln}" geom2="object{k}" data="found pos normal" '
@@ -71,8 +118,20 @@ def _sensor_xml(links: Sequence[str], n_objects: int) -> str:
 
 
 class TaskScene(NamedTuple):
+    """The manipulator scene of a task with the grasp study's sensors (`task_scene`).
+
+    Attributes:
+        model: the compiled scene.
+        arm: its `ManipulatorLayout`.
+        sensors: the grasp controller's view of the sensors (a `SceneLayout`).
+        chain: the arm's kinematic chain to the palm centre.
+        robot_geoms: ids of every robot geom (arm and hand).
+        hand_geoms: ids of the hand's link geoms (palm first).
+        table_geom: id of the table's collision plane.
+    """
+
     model: mujoco.MjModel
-    arm: Any              # sim.manipulator.ManipulatorLayout
+    arm: Any              # a ManipulatorLayout
     sensors: SceneLayout  # the grasp controller's view of the sensors
     chain: ArmChain
     robot_geoms: np.ndarray
@@ -82,6 +141,22 @@ class TaskScene(NamedTuple):
 
 @functools.lru_cache(maxsize=8)
 def task_scene(hand: str, objects: tuple[int, ...], object_xy: tuple[tuple[float, float], ...]) -> TaskScene:
+    """The manipulator scene of a task, with the grasp study's sensors added (cached, up to 8).
+
+    The sensors are those of the grasp scenes (`sim.hands.grasp_model`): touch per link site, contact
+    per (link, object), object and palm frames, so that the grasp controller reads them unchanged.
+
+    Args:
+        hand: "barrett" or "karlsruhe".
+        objects: grasp classes of the objects on the table.
+        object_xy: where they stand (world m), one (x, y) per object.
+
+    Returns:
+        The `TaskScene`, shared by callers with the same arguments: do not modify its model.
+
+    Raises:
+        ValueError: an unknown hand or grasp class.
+    """
     spec = hand_spec(hand)
     xml = manipulator_scene_xml(hand, objects=objects, object_xy=np.array(object_xy))
     xml = xml.replace("</mujoco>", _sensor_xml(spec.link_names, len(objects)) + "\n</mujoco>")
@@ -156,8 +231,8 @@ def _rot_z(angle: float) -> np.ndarray:
 YAW_STEPS_DEG = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0)
 # downward tilts of the approach (`plan_trials`' tilts_deg), tried at every yaw after the plan's own (0):
 # near the arm's base a level side approach to a short object puts the wrist into the table, and the forearm
-# over a neighbour; validation demonstrations of their own seed (README, issue 21): Abducted Thumb tasks
-# reachable 4 / 14 level, 13 / 14 with these
+# over a neighbour; on the imitation study's validation demonstrations (each of its own seed), Abducted Thumb
+# tasks were reachable 4 / 14 level, 13 / 14 with these
 TILT_STEPS_DEG = (0.0, 15.0, 30.0)
 
 
@@ -209,8 +284,8 @@ def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) ->
     (`collides`); and whether there is one (else the level, preferred one)."""
     n_tilt = len(TILT_STEPS_DEG)
     params, _ = plan_trials(spec.hand, [spec.grasp] * n_tilt, np.zeros((n_tilt, 2)), TILT_STEPS_DEG,
-                            [spec.tactile] * n_tilt, [seed] * n_tilt, mapping=mapping, hold_s=HOLD_S,
-                            objects=[spec.objects[spec.target]] * n_tilt)
+                            [spec.tactile] * n_tilt, [seed] * n_tilt, objects=[spec.objects[spec.target]] * n_tilt,
+                            options=PlanOptions(mapping=mapping, hold_s=HOLD_S))
     psi0 = _preferred_yaw(spec.grasp, spec.hand_rot, spec.object_xy[spec.target])
     plans = [_plan(spec, jax.tree.map(lambda a, i=i: a[i:i + 1], params), psi0 + np.radians(d), d, t)
              for i, t in enumerate(TILT_STEPS_DEG) for d in YAW_STEPS_DEG]

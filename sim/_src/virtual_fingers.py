@@ -31,7 +31,13 @@ MAX_ANGLE_DEG = 45.0
 
 
 class VirtualFingers(NamedTuple):
-    """B sets of at most E virtual fingers: valid (B, E) bool, pos (B, E, 3), normal (B, E, 3)."""
+    """B sets of at most E virtual fingers (or entities), in the object frame (MAP §IV-A).
+
+    Attributes:
+        valid: (B, E) bool: the slot holds a virtual finger.
+        pos: (B, E, 3) mean contact positions.
+        normal: (B, E, 3) mean unit contact normals, out of the object.
+    """
 
     valid: jax.Array
     pos: jax.Array
@@ -39,8 +45,15 @@ class VirtualFingers(NamedTuple):
 
 
 class VFErrors(NamedTuple):
-    """Per trial (B,): mean matched position error (mm, NaN if nothing matched), mean orientation
-    error (deg), number of matched pairs, robot and human virtual-finger counts."""
+    """The virtual-finger errors of B robot grasps against a human grasp (MAP §IV-A, Fig. 4).
+
+    Attributes:
+        position_mm: (B,) mean matched position error (mm, NaN if nothing matched).
+        orientation_deg: (B,) mean matched orientation error (degrees, NaN if nothing matched).
+        n_matched: (B,) matched pairs.
+        n_robot: (B,) robot virtual fingers.
+        n_human: (B,) human virtual fingers.
+    """
 
     position_mm: jax.Array
     orientation_deg: jax.Array
@@ -55,9 +68,14 @@ def _normalize(v: jax.Array) -> jax.Array:
 
 @jax.jit
 def entities_from_links(contacts: jax.Array, link_entity: jax.Array) -> VirtualFingers:
-    """Per-link contact records (B, L, 7: found, pos (3), normal (3)) -> per-entity means (B, E, ...).
+    """Per-link contact records reduced to entities: the palm and each finger with a contact.
 
-    link_entity (L,) int: 0 palm, k finger k (< E).
+    Args:
+        contacts: (B, L, 7) per link: found, position (3), normal (3) in the object frame.
+        link_entity: (L,) int: 0 palm, k finger k (< E).
+
+    Returns:
+        The entities (B, E): mean position and mean unit normal of each entity's contacts.
     """
     found = contacts[..., 0] > 0                                                  # (B, L)
     onehot = (link_entity[:, None] == jnp.arange(N_ENTITIES)).astype(contacts.dtype)  # (L, E)
@@ -70,9 +88,17 @@ def entities_from_links(contacts: jax.Array, link_entity: jax.Array) -> VirtualF
 
 @jax.jit
 def group_virtual_fingers(ent: VirtualFingers, max_angle_deg: float = MAX_ANGLE_DEG) -> VirtualFingers:
-    """Group finger entities (index >= 1) with normals within `max_angle_deg` into virtual fingers.
+    """Group finger entities with close normals into virtual fingers (MAP §IV-A).
 
-    Each group is stored at its lowest member index; the palm (index 0) stays alone.
+    Fingers (index >= 1) whose normals are within `max_angle_deg` of each other are grouped by single
+    linkage; each group is stored at its lowest member index; the palm (index 0) stays alone.
+
+    Args:
+        ent: entities (B, E) (`entities_from_links`).
+        max_angle_deg: the largest angle between normals of fingers acting in unison.
+
+    Returns:
+        The virtual fingers (B, E): the mean of their members' positions and normals.
     """
     e = ent.valid.shape[-1]
     cos = jnp.einsum("bic,bjc->bij", ent.normal, ent.normal)
@@ -95,7 +121,18 @@ _PERMS = np.array(list(itertools.permutations(range(N_ENTITIES))))   # (720, E)
 
 @jax.jit
 def match_virtual_fingers(robot: VirtualFingers, human: VirtualFingers) -> VFErrors:
-    """Errors between matched robot (B, E) and human (B, E) virtual fingers (see module docstring)."""
+    """Match robot to human virtual fingers and measure their errors (MAP §IV-A).
+
+    The min(n_r, n_h) pairs that minimise the summed position distance are chosen (all injective
+    assignments enumerated); the errors are a lower bound when the counts differ, as in the paper.
+
+    Args:
+        robot: (B, E) the robot's virtual fingers.
+        human: (B, E) the human's.
+
+    Returns:
+        The `VFErrors`.
+    """
     perms = jnp.asarray(_PERMS)
     h_valid = human.valid[:, perms]                                      # (B, P, E)
     h_pos = human.pos[:, perms]                                          # (B, P, E, 3)
@@ -120,8 +157,17 @@ def _at(x: jax.Array, best: jax.Array) -> jax.Array:
 
 
 def human_entities(grasp: int) -> VirtualFingers:
-    """The human reference grasp's entities (1, E): palm (incl. thenar and metacarpals) and five fingers,
-    from `sim.human_grasps.grasp_contacts` (object frame, normals out of the object)."""
+    """The entities of a human reference grasp: the palm (incl. thenar and metacarpals) and five fingers.
+
+    Args:
+        grasp: the grasp class (`GRASP_CLASSES`).
+
+    Returns:
+        The entities (1, E), from `grasp_contacts` (object frame, normals out of the object).
+
+    Raises:
+        ValueError: an unknown grasp class.
+    """
     c = grasp_contacts(grasp)
     entity = np.array([next((k + 1 for k, f in enumerate(HUMAN_FINGERS) if part.startswith(f)), 0)
                        for part in c.parts], dtype=np.int32)
@@ -130,7 +176,16 @@ def human_entities(grasp: int) -> VirtualFingers:
 
 
 def vf_errors(contacts: np.ndarray, link_finger: np.ndarray, human: VirtualFingers) -> VFErrors:
-    """Robot contact records (B, L, 7) against one human grasp's entities (1, E) -> `VFErrors` (numpy)."""
+    """The virtual-finger errors of B robot grasps against one human grasp (MAP §IV-A, Fig. 4).
+
+    Args:
+        contacts: (B, L, 7) robot contact records (`GraspOutcomes.contacts`).
+        link_finger: (L,) 0 palm, k finger k (`HandSpec.link_finger`).
+        human: the human grasp's entities (1, E) (`human_entities`).
+
+    Returns:
+        The `VFErrors`, as numpy arrays.
+    """
     robot = group_virtual_fingers(entities_from_links(jnp.asarray(contacts, jnp.float32), jnp.asarray(link_finger)))
     b = contacts.shape[0]
     human_vf = group_virtual_fingers(human)

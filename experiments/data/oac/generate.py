@@ -1,40 +1,34 @@
 """Generating (and caching) the data set, and the images of one recording."""
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import json
-
 import numpy as np
 
 import sim
 from experiments.data.oac.settings import N_CLASSES, OACData, OACSettings, VERSION, draw_persons
 from experiments.data.oac.views import Views, masked_hog, record
-from lfd_common import cache_dir, check_int, source_digest, write_npz
+from lfd_common import Cache, check_int
 
 
-def _cache_path(settings: OACSettings):
-    """Keyed by every setting, this generator's source and the hand model's source and postures, so a
-    change to the simulation never reuses stale renders."""
-    code = "".join(source_digest(package) for package in ("experiments.data.oac", "sim"))
-    key = json.dumps({"version": VERSION, "code": code, **dataclasses.asdict(settings)}, sort_keys=True)
-    digest = hashlib.sha1(key.encode()).hexdigest()[:16]
-    return cache_dir("oac") / f"oac_{digest}.npz"
+# Keyed by every setting and the source the generator runs (`views` takes HOG from `hog_jax`, `motion`
+# the stereo model from `hog_jax.video`), so a change to the simulation never reuses stale renders.
+_DATA = Cache("oac", packages=("experiments.data.oac", "sim", "hog_jax", "lfd_common"), version=VERSION)
 
 
 def generate(settings: OACSettings = OACSettings(), cache: bool = True, progress=None) -> OACData:
     """Simulate the OAC data set: every class x person x repetition (N = 3 * persons * repetitions).
 
-    Deterministic from `settings.seed`; cached under `cache_dir("oac")` keyed by every setting.
+    Deterministic from `settings.seed`; cached under `cache_dir("oac")` keyed by every setting and the
+    source it runs; `cache=False` simulates without reading or writing.
     `progress`: optional wrapper of an iterable (e.g. `experiments.config.progress`) for a progress bar.
     """
     if not isinstance(settings, OACSettings):
         raise ValueError(f"settings: expected an OACSettings, got {type(settings).__name__}")
     sim.setup_rendering()
-    path = _cache_path(settings)
-    if cache and path.exists():
-        with np.load(path) as z:
-            return OACData(**{k: z[k] for k in OACData._fields})
+    return _DATA.get(lambda: _simulate(settings, progress), enabled=cache, settings=settings)
+
+
+def _simulate(settings: OACSettings, progress) -> OACData:
+    """The data set of `generate`, simulated (uncached)."""
     rng = np.random.default_rng(settings.seed)
     persons = draw_persons(rng, settings.n_persons)
     jobs = [(c, p) for p in range(settings.n_persons) for c in range(N_CLASSES)]
@@ -61,16 +55,13 @@ def generate(settings: OACSettings = OACSettings(), cache: bool = True, progress
         return out
 
     meta = np.array(meta)
-    data = OACData(
+    return OACData(
         action=meta[:, 0], object=meta[:, 0].copy(), person=meta[:, 1], repetition=meta[:, 2], lengths=lengths,
         pos2d=pad([r["pos2d"] for r in recs]), pos3d=pad([r["pos3d"] for r in recs]),
         hand_hog=pad([hand_hog[starts[i]:starts[i + 1]] for i in range(n)]),
         object_hog=pad([obj_hog[starts[i]:starts[i + 1]] for i in range(n)]),
         hand_true=pad([r["hand_true"] for r in recs]),
     )
-    if cache:
-        write_npz(path, **data._asdict())
-    return data
 
 
 def recording_images(settings: OACSettings, cls: int, person: int, repetition: int) -> dict:

@@ -5,7 +5,9 @@ import math
 
 import numpy as np
 
-from hog_jax.video import StereoCamera, project, triangulate
+from hog_jax.video import StereoCamera
+from hog_jax.video import project as stereo_project
+from hog_jax.video import triangulate as stereo_triangulate
 from lfd_common import axis_angle_to_matrix as rotation_about, check_int  # rotation_about(axis (3,), angle (...)) -> (..., 3, 3)
 from experiments.data.oac.grips import grip_of
 from experiments.data.oac.settings import BASELINE_M, FOCAL_PX, IMAGE_SIZE_PX, N_CLASSES, OACSettings, Person, TABLE_Z_M
@@ -111,7 +113,7 @@ CAMERA = StereoCamera(FOCAL_PX, BASELINE_M, *IMAGE_SIZE_PX, cx=IMAGE_SIZE_PX[0] 
 def project(points: np.ndarray, centre: np.ndarray, rot: np.ndarray) -> np.ndarray:
     """Pinhole projection of world points (..., 3) to pixels (..., 2) of the camera at `centre`, `rot`
     (640 x 480, f = 525: `CAMERA`'s left view)."""
-    return project(CAMERA, (points - centre) @ rot).left
+    return stereo_project(CAMERA, (points - centre) @ rot).left
 
 
 def triangulate(left_px: np.ndarray, right_px: np.ndarray) -> np.ndarray:
@@ -121,7 +123,7 @@ def triangulate(left_px: np.ndarray, right_px: np.ndarray) -> np.ndarray:
     set clamps it at 1 px (a far point) rather than drop the frame, by moving the right pixel."""
     right = np.array(right_px, dtype=float)
     right[..., 0] = np.minimum(right[..., 0], np.asarray(left_px, float)[..., 0] - 1.0)
-    return triangulate(CAMERA, left_px, right).xyz
+    return stereo_triangulate(CAMERA, left_px, right).xyz
 
 
 def _ar1(rng: np.random.Generator, n: int, dims: int, rho: float = 0.8) -> np.ndarray:

@@ -1,13 +1,9 @@
 """Batches of recordings: occlusion and gap filling, stacking, resampling, the study protocol."""
 from __future__ import annotations
 
-import hashlib
-import json
-from pathlib import Path
-
 import numpy as np
 
-from lfd_common import as_array, cache_dir, check_int, write_npz
+from lfd_common import as_array, cached, check_int
 from experiments.data.tabletop.subjects import (ACTIONS, FRAME_RATE_HZ, MARKERS, Recordings, TABLE_EDGE_Y,
                                                 TABLE_HEIGHT_M, raster_targets, sample_subject)
 from experiments.data.tabletop.movement import simulate_movement
@@ -71,23 +67,14 @@ def resample(recordings: Recordings, n_samples: int = 100) -> np.ndarray:
 # --------------------------------------------------------------------------------------------------
 # Data sets for the protocol, cached
 
+@cached("phmm_tabletop", packages=("experiments.data.tabletop", "lfd_common"), switch="use_cache")
 def protocol_data(seed: int, train_raster=(3, 3), train_repetitions: int = 10, test_raster=(5, 7),
                   test_repetitions: int = 4, n_subjects: int = 1, endpoint_sd_m: float = 0.012,
                   marker_noise_m: float = 0.002, drop_rate: float = 0.3, use_cache: bool = True):
     """Training and test recordings of both actions (train, test), each a `Recordings` with the
     actions concatenated (reaching first), target-major within an action. Cached under
-    `cache_dir("phmm_tabletop")` keyed by every argument and the simulator's source (this package)."""
-    settings = dict(seed=seed, train_raster=list(train_raster), train_repetitions=train_repetitions,
-                    test_raster=list(test_raster), test_repetitions=test_repetitions, n_subjects=n_subjects,
-                    endpoint_sd_m=endpoint_sd_m, marker_noise_m=marker_noise_m, drop_rate=drop_rate,
-                    code=hashlib.sha256(b"".join(f.read_bytes() for f in sorted(Path(__file__).parent.glob("*.py"))))
-                    .hexdigest())  # a simulator change invalidates
-    key = hashlib.sha256(json.dumps(settings, sort_keys=True).encode()).hexdigest()[:16]
-    path = cache_dir("phmm_tabletop") / f"data_{key}.npz"
-    if use_cache and path.exists():
-        with np.load(path) as f:
-            return tuple(Recordings(f[f"{s}_markers"], f[f"{s}_lengths"], f[f"{s}_action"], f[f"{s}_target"],
-                                    FRAME_RATE_HZ, MARKERS) for s in ("train", "test"))
+    `cache_dir("phmm_tabletop")` keyed by every argument and the source of the simulator (this package)
+    and of `lfd_common`; `use_cache=False` computes without reading or writing."""
     rng = np.random.default_rng(seed)
     subjects = [sample_subject(rng) for _ in range(check_int(n_subjects, "n_subjects", min_value=1))]
     kw = dict(endpoint_sd_m=endpoint_sd_m, marker_noise_m=marker_noise_m, drop_rate=drop_rate)
@@ -95,9 +82,6 @@ def protocol_data(seed: int, train_raster=(3, 3), train_repetitions: int = 10, t
     for raster, reps in ((train_raster, train_repetitions), (test_raster, test_repetitions)):
         targets = raster_targets(*raster)
         out.append(concatenate([simulate(rng, subjects, targets, reps, a, **kw) for a in ACTIONS]))
-    if use_cache:
-        write_npz(path, **{f"{s}_{k}": getattr(r, k) for s, r in zip(("train", "test"), out)
-                          for k in ("markers", "lengths", "action", "target")})
     return tuple(out)
 
 

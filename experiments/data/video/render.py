@@ -1,35 +1,23 @@
 """Rendering recordings (both views, RGB and labels, per-frame ground truth), caching, the data sets."""
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import inspect
-import json
-import os
-import sys
-import tempfile
 from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 
-from lfd_common import cache_dir
+from lfd_common import Cache
 from experiments.config import progress as _progress_bar
 from experiments.data.oac.settings import N_CLASSES, OBJECTS
 from experiments.data.video.kinematics import Track, script_track
 from experiments.data.video.people import Actor, actor
-from experiments.data.video.settings import (TRACKED, UNSEEN, VERSION, Primitive, Recording, Script,
-                                             VideoSet, VideoSettings, check_script)
+from experiments.data.video.settings import (SOURCE_PACKAGES, TRACKED, UNSEEN, VERSION, Primitive, Recording,
+                                             Script, VideoSet, VideoSettings, check_script)
 from sim.scenes import PART_LABELS, PART_NAMES, PersonScene, ScenePose
 
 _TRACKED_PARTS = np.array([PART_NAMES.index("hand"), PART_NAMES.index("face")]
                           + [PART_NAMES.index(f"object{k}") for k in range(len(OBJECTS))])
 _STANDING = np.where(np.arange(len(PART_LABELS)) >= PART_NAMES.index("object0"), 0, PART_LABELS).astype(np.uint8)
-_SOURCES = ("experiments.data.video.settings", "experiments.data.video.people", "experiments.data.video.kinematics",
-            "experiments.data.video.render", "experiments.data.oac.motion", "experiments.data.oac.grips",
-            "experiments.data.oac.scene", "experiments.data.oac.settings", "experiments.data.tabletop.movement",
-            "experiments.data.tabletop.subjects", "sim._src.person_body", "sim._src.person_scene", "sim._src.human_hand",
-            "sim._src.human_grasps")
+RENDERS = Cache("video", packages=SOURCE_PACKAGES, version=VERSION, compress=True)  # noise-free images compress well
 
 
 def ellipses(parts: np.ndarray, ids: np.ndarray = _TRACKED_PARTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -60,33 +48,6 @@ def ellipses(parts: np.ndarray, ids: np.ndarray = _TRACKED_PARTS) -> tuple[np.nd
     centre = np.where(found[..., None], np.stack([mx, my], -1), 0.0)
     cov = np.where(found[..., None, None], np.stack([np.stack([cxx, cxy], -1), np.stack([cxy, cyy], -1)], -2), 0.0)
     return (centre.reshape(lead + (j, 2)), cov.reshape(lead + (j, 2, 2)), area.reshape(lead + (j,)).astype(np.int32))
-
-
-def _cache_path(settings: VideoSettings, script: Script) -> Path:
-    code = hashlib.sha1("".join(inspect.getsource(sys.modules[m]) for m in _SOURCES).encode()).hexdigest()
-    key = json.dumps({"version": VERSION, "code": code, "settings": dataclasses.asdict(settings),
-                      "script": [script.person, script.seed, [list(p) for p in script.primitives]]},
-                     sort_keys=True, default=float)
-    return cache_dir("video") / f"rec_{hashlib.sha1(key.encode()).hexdigest()[:20]}.npz"
-
-
-def _save(path: Path, rec: Recording) -> None:
-    """np.savez_compressed, atomically (another process never sees half a file)."""
-    handle, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as f:
-            np.savez_compressed(f, **{k: np.asarray(v) for k, v in rec._asdict().items()})
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _load(path: Path) -> Recording:
-    with np.load(path) as z:
-        fields = {k: z[k] for k in Recording._fields}
-    fields.update(n_empty=int(fields["n_empty"]), person=int(fields["person"]), fps=float(fields["fps"]))
-    return Recording(**fields)
 
 
 def _frame(pose: ScenePose, t: int) -> ScenePose:
@@ -171,14 +132,13 @@ class _Scenes:
 def _recording(scenes: _Scenes, script: Script, cache: bool, progress) -> Recording:
     settings = scenes.settings
     script = check_script(script, settings)
-    path = _cache_path(settings, script)
-    if cache and path.exists():
-        return _camera_noise(_load(path), settings, script)
-    who = scenes.actor(script.person)
-    rec = _render(scenes.scene(script.person), who, script_track(who, script, settings), settings, script, progress)
-    if cache:
-        _save(path, rec)
-    return _camera_noise(rec, settings, script)
+
+    def render() -> Recording:
+        who = scenes.actor(script.person)
+        return _render(scenes.scene(script.person), who, script_track(who, script, settings), settings, script,
+                       progress)
+
+    return _camera_noise(RENDERS.get(render, enabled=cache, settings=settings, script=script), settings, script)
 
 
 def _check_settings(settings) -> None:

@@ -10,6 +10,9 @@ from lfd_common import check_int, check_real
 from experiments.data.oac.settings import ACTIONS as OAC_ACTIONS, OBJECTS
 
 VERSION = "video-v1"
+# The packages whose code renders a recording (the import closure of `render`), the key of its cache.
+SOURCE_PACKAGES: tuple[str, ...] = ("experiments.data.video", "experiments.data.oac", "experiments.data.tabletop",
+                                    "experiments.config", "sim", "hog_jax.video", "lfd_common")
 ACTIONS: tuple[str, ...] = OAC_ACTIONS + ("pointing", "reaching")   # per-frame action codes; -1 none
 LABELS: tuple[str, ...] = ("background", "person", "hand skin", "face skin") + OBJECTS  # label map values
 TRACKED: tuple[str, ...] = ("hand", "face") + OBJECTS                # the J parts with ground-truth ellipses

@@ -46,7 +46,7 @@ is OpenCV MOG2's default floor (`fVarMin`), on the same total-squared-distance s
 Options (`BackgroundOptions`) are traced: changing alpha, T or the decision rule does not recompile.
 Vectorised over pixels, `lax.scan` over frames (`run_background`), `vmap` over videos
 (`run_background_batch`, in groups of `videos_per_step`). Internally the pixels lie on the last axis
-((K, N), (K, C, N), N = H W; the kernel is `hog_jax.background_kernel`): every per-component
+((K, N), (K, C, N), N = H W; the kernel is `background_kernel`): every per-component
 quantity is one elementwise loop over the pixels. On the CPU `threads` cuts the rows into stripes
 (or the videos into groups), each its own compiled call on a host thread.
 Validation (ValueError naming the argument) happens at the boundary, outside jit.
@@ -62,6 +62,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import Mesh
 from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from hog_jax.video._src.background_kernel import (BackgroundState, KernelOptions, init_state,
@@ -78,7 +79,15 @@ _DECISIONS = ("stauffer_grimson", "matched")
 
 @dataclasses.dataclass(frozen=True)
 class BackgroundStructure:
-    """What changes the state's shapes: K components per pixel and C colour channels."""
+    """What changes the background state's shapes (LEVELSET TR §3.5).
+
+    Attributes:
+        n_components: K Gaussians per pixel, >= 1 (TR: 3).
+        n_channels: C colour channels, >= 1 (3: RGB).
+
+    Raises:
+        ValueError: naming the field for a value < 1.
+    """
 
     n_components: int = 3
     n_channels: int = 3
@@ -89,7 +98,31 @@ class BackgroundStructure:
 
 
 class BackgroundOptions(NamedTuple):
-    """Update and decision options (module docstring); validated by `check_options`, traced under jit."""
+    """The Stauffer–Grimson update and decision options (LEVELSET TR §3.5, eqs. 9-10).
+
+    Traced under jit: changing them does not recompile; validated by `check_options` at every entry
+    point. Stauffer and Grimson leave T and the replacement's "high variance, low weight" as
+    parameters; the defaults take the values of OpenCV's implementation of their model
+    (`bgsegm.BackgroundSubtractorMOG`).
+
+    Attributes:
+        alpha: the learning rate of eq. 10, in (0, 1] (TR: 0.05).
+        rho: the mean and variance rate of eq. 10: "alpha" (rho = alpha, the TR's choice) or
+            "alpha_eta" (rho = alpha eta(X | mu, sigma^2 I), clipped to 1).
+        match_sigmas: lambda, > 0: component k matches when |X - mu_k| < lambda sigma_k (TR: 2.5; the
+            norm over the C channels, the variance tracking the total squared distance, as OpenCV's
+            MOG2).
+        init_variance: the variance of a component that replaces the least probable one when nothing
+            matched (900: standard deviation 2 x 15), >= min_variance.
+        init_weight: the weight of that component, in (0, 1].
+        min_variance: the variance floor, > 0 (4, OpenCV MOG2's `fVarMin`): on integer pixel values a
+            static pixel's variance decays to 0, after which an exact repeat fails the strict match.
+        background_ratio: T in (0, 1): the first B components by w / sigma, B = argmin_b
+            (sum_{k<=b} w_k > T), model the background.
+        decision: "stauffer_grimson" (a pixel is foreground when nothing matched or its best match is
+            not among the first B; a new component must earn weight T before it counts as background)
+            or "matched" (TR §3.5: foreground = nothing matched).
+    """
 
     alpha: float = 0.05
     rho: str = "alpha"
@@ -102,9 +135,20 @@ class BackgroundOptions(NamedTuple):
 
 
 def check_options(options: BackgroundOptions) -> KernelOptions:
-    """ValueError naming the field for alpha outside (0, 1], match_sigmas <= 0, variances <= 0 (or
-    init_variance < min_variance), init_weight outside (0, 1], background_ratio outside (0, 1) or an
-    unknown rho / decision."""
+    """Validate `BackgroundOptions` and return their traced form.
+
+    Args:
+        options: the `BackgroundOptions`.
+
+    Returns:
+        The options as float32 / bool scalars for the jitted kernel.
+
+    Raises:
+        ValueError: naming the field for alpha outside (0, 1], match_sigmas <= 0, variances <= 0 (or
+            init_variance < min_variance), init_weight outside (0, 1], background_ratio outside
+            (0, 1), or an unknown rho or decision; naming `options` when it is not a
+            `BackgroundOptions`.
+    """
     if not isinstance(options, BackgroundOptions):
         raise ValueError(f"options: expected a BackgroundOptions, got {type(options).__name__}")
     o = options
@@ -190,17 +234,42 @@ def _check_state(state, name: str, shape_hw: tuple[int, int], channels: int) -> 
 # ------------------------------------------------------------------------------------ public API
 def init_background(first_frame: Real[ArrayLike, "H W C"], structure: BackgroundStructure = BackgroundStructure(),
                     options: BackgroundOptions = BackgroundOptions()) -> BackgroundState:
-    """The state before any update: component 0 at the first frame (H, W, C) with weight 1 and the
-    initial variance; the other K - 1 empty (weight 0). ValueError naming the argument for a frame of
-    the wrong shape or dtype, NaN or values outside [0, 255]."""
+    """The background state before any update (LEVELSET TR §3.5).
+
+    Component 0 at the first frame with weight 1 and the initial variance; the other K - 1 empty
+    (weight 0: they never match).
+
+    Args:
+        first_frame: (H, W, C) the first frame, uint8 or real in [0, 255].
+        structure: K and C (`BackgroundStructure`).
+        options: the `BackgroundOptions` (its init_variance).
+
+    Returns:
+        The `BackgroundState`.
+
+    Raises:
+        ValueError: naming the argument for a frame of the wrong shape or dtype, NaN or values outside
+            [0, 255], or bad options.
+    """
     frame = _check_frames(first_frame, "first_frame", 3, structure.n_channels)
     return _init_jit(jnp.asarray(frame), structure.n_components, check_options(options))
 
 
 def log_density(state: BackgroundState, frame: Real[ArrayLike, "H W C"], scale: float = 255.0) -> Float[Array, "H W"]:
-    """Eq. 9's log P(X) (H, W) of a frame (H, W, C) under every pixel's mixture, in the coordinates
-    X / scale (255: the unit colour cube of `hog_jax.video`'s colour models); -inf nowhere a
-    component has weight. ValueError naming the argument."""
+    """Eq. 9's log P(X) of a frame under every pixel's mixture (LEVELSET TR §3.5).
+
+    Args:
+        state: the `BackgroundState`.
+        frame: (H, W, C) a frame in [0, 255].
+        scale: the density is of X / scale (255: the unit colour cube of the video colour models), > 0.
+
+    Returns:
+        (H, W) log-densities; -inf nowhere a component has weight.
+
+    Raises:
+        ValueError: naming the argument for a frame or state of other shapes, bad values or
+            scale <= 0.
+    """
     C = np.shape(state.means)[-1] if isinstance(state, BackgroundState) else 0
     arr = _check_frames(frame, "frame", 3, max(C, 1))
     _check_state(state, "state", arr.shape[:2], arr.shape[2])
@@ -218,9 +287,26 @@ def _log_density_jit(state, frame, scale):
 def update(state: BackgroundState, frame: Real[ArrayLike, "H W C"],
            no_update_mask: Bool[ArrayLike, "H W"] | None = None,
            options: BackgroundOptions = BackgroundOptions()) -> tuple[BackgroundState, Bool[Array, "H W"]]:
-    """One frame (H, W, C) of eqs. 9-10 -> (new state, foreground (H, W) bool). Pixels where
-    `no_update_mask` is True keep their state (they are still classified). ValueError naming the
-    argument for bad frames, masks or a state of other shapes."""
+    """One frame of the Stauffer–Grimson update (LEVELSET TR §3.5, eqs. 9-10).
+
+    Per pixel: the best matching component (highest w / sigma among those with |X - mu| <
+    lambda sigma) moves by eq. 10; without a match the least probable component is replaced by one at
+    X; weights are renormalised; the pixel is classified on the state after the update.
+
+    Args:
+        state: the `BackgroundState`.
+        frame: (H, W, C) a frame in [0, 255].
+        no_update_mask: (H, W) bool, True where a pixel keeps its state (the person and tracked
+            objects, TR §3.5 last paragraph: still classified, never learned), or None.
+        options: the `BackgroundOptions`.
+
+    Returns:
+        (the new state, foreground (H, W) bool).
+
+    Raises:
+        ValueError: naming the argument for bad frames, masks or a state of other shapes, or bad
+            options.
+    """
     C = np.shape(state.means)[-1] if isinstance(state, BackgroundState) else 0
     arr = _check_frames(frame, "frame", 3, max(C, 1))
     _check_state(state, "state", arr.shape[:2], arr.shape[2])
@@ -282,18 +368,29 @@ def run_background(frames: Real[ArrayLike, "T H W C"], no_update_masks: Bool[Arr
                    options: BackgroundOptions = BackgroundOptions(),
                    initial_state: BackgroundState | None = None,
                    threads: int | None = None) -> tuple[BackgroundState, Bool[Array, "T H W"]]:
-    """A video (T, H, W, C) (uint8 or real in [0, 255]) -> (final state, foreground (T, H, W) bool).
+    """Run the Stauffer–Grimson background model over a video (LEVELSET TR §3.5, eqs. 9-10).
 
-    The state starts from `init_background(frames[0])` (or `initial_state`, to continue a video) and
-    every frame, the first included, is classified and then learned (`update`) as one `lax.scan`.
-    no_update_masks (T, H, W): True where a frame's pixel is not learned (TR §3.5).
+    The state starts from `init_background(frames[0])` (or `initial_state`, to continue a video), and
+    every frame, the first included, is classified and then learned (`update`) in one `lax.scan`.
 
-    threads: the pixels are independent, so the rows are cut into this many stripes, each its own
-    compiled scan on a host thread (`_in_threads`); the result does not depend on it. Default: one
-    per core on the CPU backend, 1 (the whole frame in one call) on an accelerator.
+    Args:
+        frames: (T, H, W, C) a video, uint8 or real in [0, 255].
+        no_update_masks: (T, H, W) bool, True where a frame's pixel is not learned (TR §3.5), or None.
+        structure: K and C (`BackgroundStructure`).
+        options: the `BackgroundOptions`.
+        initial_state: a `BackgroundState` to continue from, or None.
+        threads: the pixels are independent, so the rows are cut into this many stripes, each its own
+            compiled scan on a host thread; the result does not depend on it. Default: one per core on
+            the CPU backend, 1 on an accelerator.
 
-    ValueError naming the argument for frames of the wrong shape or dtype, zero frames, NaN, values
-    outside [0, 255], masks of another shape or non-boolean values, threads < 1, or bad options."""
+    Returns:
+        (the final `BackgroundState`, foreground (T, H, W) bool).
+
+    Raises:
+        ValueError: naming the argument for frames of the wrong shape or dtype, zero frames, NaN,
+            values outside [0, 255], masks of another shape or non-boolean values, an initial state of
+            other shapes, threads < 1, or bad options.
+    """
     x, m, o = _run(frames, no_update_masks, structure, options, 4)
     if initial_state is not None:
         _check_state(initial_state, "initial_state", x.shape[1:3], x.shape[3])
@@ -319,20 +416,32 @@ def run_background_batch(frames: Real[ArrayLike, "B T H W C"],
                          no_update_masks: Bool[ArrayLike, "B T H W"] | None = None,
                          structure: BackgroundStructure = BackgroundStructure(),
                          options: BackgroundOptions = BackgroundOptions(), videos_per_step: int | None = None,
-                         threads: int | None = None, *, mesh=None) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
-    """`run_background` for B videos of equal length (B, T, H, W, C) in one call: final states with a
-    leading B axis and foreground (B, T, H, W). Checks as `run_background`.
+                         threads: int | None = None, *,
+                         mesh: Mesh | None = None) -> tuple[BackgroundState, Bool[Array, "B T H W"]]:
+    """`run_background` for B videos of equal length in one call.
 
-    videos_per_step: how many videos are vmapped together (the groups run one after another in one
-    compiled `lax.map`). Default: all B on an accelerator; one on the CPU, where one video's state
-    (K (C + 2) floats per pixel) stays in the cache from frame to frame and B of them would not: a
-    vmap over all videos there gave fewer frames per second than one video at a time.
-    threads: the videos are cut into this many groups, each its own compiled call on a host thread
-    (as `run_background`'s stripes); default one per core on the CPU, 1 on an accelerator.
-    mesh: a `jax.sharding.Mesh` (or None: one device). The videos are split over its devices
-    (`lfd_common.map_batch`, padded to the mesh, the padding cut off; `threads` is then unused), each
-    device runs its own; the result equals the one-device result. With several processes each passes
-    its own videos and gets its own back."""
+    Args:
+        frames: (B, T, H, W, C) videos, uint8 or real in [0, 255].
+        no_update_masks: (B, T, H, W) bool, or None.
+        structure: K and C (`BackgroundStructure`).
+        options: the `BackgroundOptions`.
+        videos_per_step: how many videos are vmapped together (the groups run one after another in
+            one compiled `lax.map`), 1..B. Default: all B on an accelerator; one on the CPU, where one
+            video's state (K (C + 2) floats per pixel) stays in the cache from frame to frame and B of
+            them would not.
+        threads: the videos are cut into this many groups, each its own compiled call on a host
+            thread; default one per core on the CPU, 1 on an accelerator.
+        mesh: a `jax.sharding.Mesh`, or None for one device. The videos are split over its devices
+            (padded to the mesh, the padding cut off; `threads` is then unused); the result equals the
+            one-device result. With several processes each passes its own videos and gets its own back.
+
+    Returns:
+        (final states with a leading B axis, foreground (B, T, H, W) bool).
+
+    Raises:
+        ValueError: naming the argument, as `run_background`, for videos_per_step outside [1, B], and
+            for a `mesh` that is not a `jax.sharding.Mesh`.
+    """
     mesh = check_mesh(mesh)
     x, m, o = _run(frames, no_update_masks, structure, options, 5)
     B = x.shape[0]

@@ -1,6 +1,6 @@
-"""The Stauffer–Grimson kernel of `hog_jax.background` (TR §3.5, eqs. 9-10): one frame's match,
+"""The Stauffer–Grimson kernel of `background` (LEVELSET TR §3.5, eqs. 9-10): one frame's match,
 update and decision with the pixels on the last axis, eq. 9's density, the scan over frames, and
-the state's two layouts. The algorithm and its choices are described in `hog_jax.background`,
+the state's two layouts. The algorithm and its choices are described in `background`,
 which checks input and options at the boundary; `hog_jax.video` composes these pieces with the
 level sets in one scan.
 
@@ -20,7 +20,15 @@ __all__ = ["BackgroundState", "init_state", "log_density_pixels_last", "pixels_l
 
 
 class BackgroundState(NamedTuple):
-    """weights (H, W, K) summing to 1 per pixel, means (H, W, K, C), variances (H, W, K)."""
+    """The per-pixel Gaussian mixtures of the background model (LEVELSET TR §3.5; Stauffer & Grimson 1999).
+
+    Each pixel holds K Gaussians with one variance each (isotropic, Sigma = sigma^2 I).
+
+    Attributes:
+        weights: (H, W, K) summing to 1 per pixel (0: an empty component).
+        means: (H, W, K, C) component means.
+        variances: (H, W, K) component variances sigma^2.
+    """
 
     weights: Float[Array, "H W K"]
     means: Float[Array, "H W K C"]

@@ -1,5 +1,5 @@
 """Blobs as ellipses: connected components of binary masks and their first and second moments
-(level-set report §3.7: "objects, hands and head can be modelled as ellipses"; LfD 2009 §III-A).
+(LEVELSET TR §3.7: "objects, hands and head can be modelled as ellipses"; LfD 2009 §III-A).
 
 Pixel coordinates, used by every image-side module of the tracker: a point is (x, y) = (column, row),
 pixel (row r, column c) has its centre at (x, y) = (c, r) (integer coordinates), y points down. The
@@ -26,8 +26,17 @@ __all__ = ["Blobs", "Ellipse", "EllipseAxes", "connected_blobs", "ellipse_axes",
 
 
 class Ellipse(NamedTuple):
-    """area (...,), centroid (..., 2) (x, y), cov (..., 2, 2) second central moments / area, found (...,)
-    (area > 0; where False the centroid and cov are 0, never NaN)."""
+    """A blob as an ellipse: its area and first and second moments (LEVELSET TR §3.7).
+
+    Points are (x, y) = (column, row) of pixel centres, y down; the moments are those of the pixel
+    centres (as `cv2.moments`).
+
+    Attributes:
+        area: (...) the sum of the weights.
+        centroid: (..., 2) the weighted mean (x, y); 0 where not found.
+        cov: (..., 2, 2) the weighted second central moments / area; 0 where not found.
+        found: (...) area > 0 (where False the centroid and cov are 0, never NaN).
+    """
 
     area: Float[Array, "*batch"]
     centroid: Float[Array, "*batch 2"]
@@ -36,20 +45,32 @@ class Ellipse(NamedTuple):
 
 
 class EllipseAxes(NamedTuple):
-    """semi_axes (..., 2) major then minor (pixels, 2 sqrt of the cov eigenvalues); angle (...) of the
-    major axis from +x towards +y, radians in (-pi/2, pi/2]."""
+    """The axes and orientation of ellipses (`ellipse_axes`).
+
+    Attributes:
+        semi_axes: (..., 2) major then minor, pixels: 2 sqrt of the cov eigenvalues (a uniformly filled
+            ellipse with semi-axes a >= b has eigenvalues a^2 / 4 and b^2 / 4).
+        angle: (...) the major axis's angle from +x towards +y, radians in (-pi/2, pi/2].
+    """
 
     semi_axes: Float[Array, "*batch 2"]
     angle: Float[Array, "*batch"]
 
 
 class Blobs(NamedTuple):
-    """Connected components of T masks, at most K per frame, largest first (ties: in OpenCV's order).
+    """The connected components of T masks, at most K per frame, largest first (ties: OpenCV's order).
 
-    labels (T, H, W) uint8: 0 background (and components not kept), k + 1 for slot k; area (T, K)
-    pixels; centroid (T, K, 2); cov (T, K, 2, 2); valid (T, K) bool (False slots are padding: area,
-    centroid and cov 0); n_components (T,) int32, the components found before truncation to K and the
-    `min_area` filter. Leading axes may be (B, T) for a batch of videos."""
+    Leading axes (T,) or (B, T) for a batch of videos.
+
+    Attributes:
+        labels: (T, H, W) uint8: 0 background (and components not kept), k + 1 for slot k.
+        area: (T, K) pixels.
+        centroid: (T, K, 2) (x, y).
+        cov: (T, K, 2, 2) second central moments / area.
+        valid: (T, K) bool; False slots are padding (area, centroid and cov 0).
+        n_components: (T,) int32, the components found before the truncation to K and the `min_area`
+            filter.
+    """
 
     labels: Int[Array, "*T H W"]
     area: Float[Array, "*T K"]
@@ -72,10 +93,17 @@ def ellipse_from_sums(origin: Float[Array, "*batch 2"], area, sx, sy, sxx, sxy, 
 
 
 def weighted_moments(weights: Float[Array, "*batch H W"]) -> Ellipse:
-    """The `Ellipse` of non-negative pixel weights (..., H, W) (traceable).
+    """The `Ellipse` of non-negative pixel weights (traceable; LEVELSET TR §3.7).
 
-    Two passes (the centroid, then the second moments about it) so that float32 keeps the covariance
-    of a small blob far from the origin; an all-zero weight image gives found False and zeros."""
+    Two passes (the centroid, then the second moments about it), so that float32 keeps the
+    covariance of a small blob far from the origin.
+
+    Args:
+        weights: (..., H, W) non-negative weights.
+
+    Returns:
+        An `Ellipse` with the leading axes; an all-zero weight image gives found False and zeros.
+    """
     H, W = weights.shape[-2:]
     ys = jnp.arange(H, dtype=weights.dtype)[:, None]
     xs = jnp.arange(W, dtype=weights.dtype)[None, :]
@@ -92,12 +120,21 @@ _weighted_moments = jax.jit(weighted_moments)
 
 
 def mask_ellipse(masks: Bool[ArrayLike, "T H W"], weights: Float[ArrayLike, "T H W"] | None = None) -> Ellipse:
-    """The ellipse (area, centroid, second moments) of each whole mask (T, H, W) -> `Ellipse` (T, ...).
+    """The ellipse (area, centroid, second moments) of each whole mask (LEVELSET TR §3.7).
 
-    weights: optional non-negative per-pixel weights (T, H, W) (a soft mask); the moments are then those
-    of masks * weights. An empty mask (or zero weights) gives found False, area 0, centroid and cov 0.
-    ValueError naming the argument for masks that are not (T, H, W) or not 0/1, and for negative or
-    non-finite weights or weights of another shape."""
+    Args:
+        masks: (T, H, W) boolean (or 0/1) masks.
+        weights: optional (T, H, W) non-negative per-pixel weights (a soft mask): the moments are those
+            of masks * weights.
+
+    Returns:
+        An `Ellipse` with leading axis T; an empty mask (or zero weights) gives found False, area 0,
+        centroid and cov 0.
+
+    Raises:
+        ValueError: naming the argument for masks that are not (T, H, W) or not 0/1, and for negative
+            or non-finite weights or weights of another shape.
+    """
     m = as_array(masks, "masks", ndim=3, dtype=None)
     if m.dtype != bool:
         if not np.isin(m, (0, 1)).all():
@@ -111,7 +148,15 @@ def mask_ellipse(masks: Bool[ArrayLike, "T H W"], weights: Float[ArrayLike, "T H
 
 @jax.jit
 def ellipse_axes(cov: Float[ArrayLike, "*batch 2 2"]) -> EllipseAxes:
-    """Semi-axes and orientation of the ellipses of symmetric 2 x 2 moment matrices (..., 2, 2)."""
+    """Semi-axes and orientation of the ellipses of symmetric 2 x 2 moment matrices (jitted).
+
+    Args:
+        cov: (..., 2, 2) second central moments.
+
+    Returns:
+        `EllipseAxes`: semi-axes (..., 2) (2 sqrt of the eigenvalues, major first) and the major
+        axis's angle (...).
+    """
     cov = jnp.asarray(cov, jnp.float32)
     a, b, c = cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 1]
     half_gap = jnp.sqrt(((a - c) / 2) ** 2 + b**2)  # closed-form eigenvalues: no eigh on (T, K) tiny matrices
@@ -126,12 +171,24 @@ _CHUNK_PIXELS = 1 << 25  # frames per OpenCV call: its int32 label image stays ~
 
 
 def connected_blobs(masks: Bool[ArrayLike, "*T H W"], max_blobs: int = 8, min_area: int = 1) -> Blobs:
-    """8-connected components of binary masks (..., H, W) (OpenCV, many frames per call) as padded
-    ellipse arrays: the `max_blobs` largest components of at least `min_area` pixels per frame.
+    """The 8-connected components of binary masks as padded ellipse arrays (LEVELSET TR §3.7).
 
-    The moments are exact (float64 sums over each component's pixels, by `np.bincount`), returned in
-    float32; labels are uint8. ValueError naming the argument for masks that are not at least 3-D, not
-    0/1 or empty, max_blobs < 1 or more than 255, and min_area < 1."""
+    LfD 2009 §III-A's hand and face blobs: the `max_blobs` largest components of at least `min_area`
+    pixels per frame (OpenCV, many frames per call). The moments are exact (float64 sums over each
+    component's pixels), returned in float32; labels are uint8.
+
+    Args:
+        masks: (T, H, W) or (B, T, H, W) boolean (or 0/1) masks.
+        max_blobs: K, the slots per frame, 1..255.
+        min_area: the smallest component kept, pixels, >= 1.
+
+    Returns:
+        `Blobs` with the leading axes of the masks.
+
+    Raises:
+        ValueError: naming the argument for masks that are not at least 3-D, not 0/1 or empty,
+            max_blobs outside 1..255, or min_area < 1.
+    """
     m = as_array(masks, "masks", dtype=None)
     if m.ndim < 3:
         raise ValueError(f"masks: expected (T, H, W) or (B, T, H, W) masks, got shape {m.shape}")

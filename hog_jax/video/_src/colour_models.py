@@ -1,13 +1,13 @@
-"""Person and background colour models with the number of components chosen by BIC (level-set TR
+"""Person and background colour models with the number of components chosen by BIC (LEVELSET TR
 §3.4, eq. 8), for the competing level sets (TR §3.2, eq. 7).
 
 Shapes: T frames, H x W pixels, N pixels, d colour dimensions (3 for "rgb", 2 for "chroma"), G the
 largest candidate number of components, R = 2 regions (person, background).
 
-* `fit_gmm_bic(key, x, candidates)`: full-covariance GMMs of every candidate size t, fitted by the EM of
-  `segment.fit_gmm` (the same kernel, run with its first t of G components active so that all sizes and
-  restarts share one compilation and run as one `vmap`), each the best of `n_init` k-means++ starts by
-  likelihood; the chosen one minimises eq. 8, BIC = -2 ln L + k ln N.
+* `fit_gmm_bic(key, x, options)`: full-covariance GMMs of every candidate size t, fitted by the EM
+  of `hog_jax.fit_gmm` (the same kernel, run with its first t of G components active so that all
+  sizes and restarts share one compilation and run as one `vmap`), each the best of `n_init`
+  k-means++ starts by likelihood; the chosen one minimises eq. 8, BIC = -2 ln L + k ln N.
   k, the number of free parameters: t d means + t d (d + 1) / 2 covariances + (t - 1) weights (the
   weights sum to 1), `param_count="exact"`, the default. The TR gives k = t (d + 1)(d + 2) / 2, which
   is the same count with t weights instead of t - 1 (`param_count="tr"`): it adds ln N to every
@@ -20,9 +20,9 @@ largest candidate number of components, R = 2 regions (person, background).
 * `region_log_likelihoods(models, frames)`: log p(colour | region) per pixel, (T, R, H, W), the e_i of
   eq. 7 for the person and the background.
 
-Colour space: "rgb" (R, G, B / 255, the default: the TR models the person's clothing colour) or "chroma"
-((Cr, Cb) / 255 as the skin model of `segment`, luma dropped). Densities of different spaces are not
-comparable: regions that compete in eq. 7 should share one space.
+Colour space: "rgb" (R, G, B / 255, the default: the TR models the person's clothing colour) or
+"chroma" ((Cr, Cb) / 255 as the skin model of `hog_jax.segment`, luma dropped). Densities of
+different spaces are not comparable: regions that compete in eq. 7 should share one space.
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ from hog_jax._src.checks import check_key
 from hog_jax._src.segment import GMM, em, gmm_log_prob, rgb_to_chroma
 from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["BICScores", "ColourFit", "ColourModels", "ColourStructure", "REGIONS", "bic", "fit_gmm_bic",
+__all__ = ["BICOptions", "BICScores", "ColourFit", "ColourModels", "ColourStructure", "REGIONS", "bic", "fit_gmm_bic",
            "fit_person_background_models", "gmm_n_params", "region_log_likelihoods"]
 
 REGIONS = ("person", "background")
@@ -49,7 +49,16 @@ _SPACES = {"rgb": 3, "chroma": 2}
 
 @dataclasses.dataclass(frozen=True)
 class ColourStructure:
-    """What defines the models: the chosen number of components of each mixture and the colour space."""
+    """What defines the person and background colour models (LEVELSET TR §3.4).
+
+    Attributes:
+        n_person_components: components of the person's mixture (chosen by BIC), >= 1.
+        n_background_components: components of the background's mixture, >= 1.
+        space: the colour space, "rgb" or "chroma".
+
+    Raises:
+        ValueError: naming the field for a count < 1 or an unknown space.
+    """
 
     n_person_components: int
     n_background_components: int
@@ -62,14 +71,26 @@ class ColourStructure:
 
 
 class ColourModels(NamedTuple):
-    """The person's and the background's colour mixtures (a `segment.GMM` each)."""
+    """The person's and the background's colour mixtures (LEVELSET TR §3.4).
+
+    Attributes:
+        person: the person's `hog_jax.GMM`.
+        background: the background's `hog_jax.GMM`.
+    """
 
     person: GMM
     background: GMM
 
 
 class BICScores(NamedTuple):
-    """Per candidate (C,): the number of components, eq. 8's BIC, ln L (the best start's) and k."""
+    """The BIC table of the candidate sizes (LEVELSET TR eq. 8).
+
+    Attributes:
+        candidates: (C,) the numbers of components tried.
+        bic: (C,) eq. 8's BIC = -2 ln L + k ln N (inf where EM gave no finite likelihood).
+        log_likelihood: (C,) ln L of the best start.
+        n_params: (C,) k, the free parameters.
+    """
 
     candidates: Int[Array, " C"]
     bic: Float[Array, " C"]
@@ -78,7 +99,14 @@ class BICScores(NamedTuple):
 
 
 class ColourFit(NamedTuple):
-    """`fit_person_background_models`' result: the structure, the models and both BIC tables."""
+    """The result of `fit_person_background_models`.
+
+    Attributes:
+        structure: the `ColourStructure` (the chosen sizes and the space).
+        models: the `ColourModels`.
+        person_scores: the person's `BICScores`.
+        background_scores: the background's `BICScores`.
+    """
 
     structure: ColourStructure
     models: ColourModels
@@ -87,8 +115,20 @@ class ColourFit(NamedTuple):
 
 
 def gmm_n_params(t: int, d: int, param_count: str = "exact") -> int:
-    """Free parameters of a full-covariance GMM of t components in d dimensions: "exact" t d + t d (d + 1)
-    / 2 + (t - 1); "tr" the TR's t (d + 1)(d + 2) / 2 (t weights: one more)."""
+    """The free parameters k of a full-covariance GMM (LEVELSET TR eq. 8).
+
+    Args:
+        t: components, >= 1.
+        d: dimensions, >= 1.
+        param_count: "exact": t d means + t d (d + 1) / 2 covariances + (t - 1) weights (the weights
+            sum to 1); "tr": the TR's t (d + 1)(d + 2) / 2 (t weights: one more).
+
+    Returns:
+        k.
+
+    Raises:
+        ValueError: naming the argument for t or d < 1 or an unknown param_count.
+    """
     check_int(t, "t", min_value=1)
     check_int(d, "d", min_value=1)
     check_choice(param_count, "param_count", ("exact", "tr"))
@@ -98,7 +138,16 @@ def gmm_n_params(t: int, d: int, param_count: str = "exact") -> int:
 
 
 def bic(log_likelihood: float, n_params: int, n_points: int) -> float:
-    """Eq. 8: -2 ln L + k ln N."""
+    """The Bayesian information criterion of LEVELSET TR eq. 8: -2 ln L + k ln N.
+
+    Args:
+        log_likelihood: ln L.
+        n_params: k.
+        n_points: N.
+
+    Returns:
+        BIC, as a float.
+    """
     return -2.0 * float(log_likelihood) + n_params * math.log(n_points)
 
 
@@ -180,27 +229,71 @@ def _fit_bic(key, x: np.ndarray, candidates: tuple[int, ...], n_iter: int, n_ini
                              jnp.asarray(k, jnp.int32))
 
 
-def _check_fit_options(n_iter, n_init, reg, param_count):
-    check_int(n_iter, "n_iter", min_value=1)
-    check_int(n_init, "n_init", min_value=1)
-    check_real(reg, "reg", min_value=0.0, exclusive_min=True)
-    check_choice(param_count, "param_count", ("exact", "tr"))
+@dataclasses.dataclass(frozen=True)
+class BICOptions:
+    """How the colour GMMs are fitted and their sizes chosen by BIC (LEVELSET TR §3.4, eq. 8).
+
+    Validated on construction; the candidates are stored sorted.
+
+    Attributes:
+        candidates: the numbers of components t to try: distinct positive integers.
+        n_iter: EM iterations per start, >= 1.
+        n_init: k-means++ starts per candidate, >= 1 (the best by likelihood is kept).
+        reg: added to every covariance's diagonal, > 0.
+        param_count: the parameter count k of eq. 8 (`gmm_n_params`): "exact" (t - 1 free weights,
+            the one BIC is defined with) or "tr" (the TR's count, t weights; it adds ln N to every
+            candidate alike, so both choose the same t).
+
+    Raises:
+        ValueError: naming the field for empty, non-positive or repeated candidates or another value
+            out of range.
+    """
+
+    candidates: Sequence[int] = (1, 2, 3, 4, 5)
+    n_iter: int = 100
+    n_init: int = 3
+    reg: float = 1e-5
+    param_count: str = "exact"
+
+    def __post_init__(self):
+        object.__setattr__(self, "candidates", _check_candidates(self.candidates))
+        check_int(self.n_iter, "n_iter", min_value=1)
+        check_int(self.n_init, "n_init", min_value=1)
+        check_real(self.reg, "reg", min_value=0.0, exclusive_min=True)
+        check_choice(self.param_count, "param_count", ("exact", "tr"))
 
 
-def fit_gmm_bic(key: Key[Array, ""], x: Float[ArrayLike, "N d"], candidates: Sequence[int] = (1, 2, 3, 4, 5),
-                n_iter: int = 100, n_init: int = 3, reg: float = 1e-5,
-                param_count: str = "exact") -> tuple[GMM, BICScores]:
-    """The GMM of the candidate size with the lowest BIC (eq. 8) for points x (N, d), and the BIC table.
+def _check_bic_options(options) -> BICOptions:
+    if not isinstance(options, BICOptions):
+        raise ValueError(f"options: expected a BICOptions, got {type(options).__name__}")
+    return options
 
-    Each candidate t is the best (by likelihood) of `n_init` EM runs of `n_iter` iterations from
-    k-means++ seeds (`segment.fit_gmm`'s EM, `reg` added to every covariance). ValueError naming the argument
-    for empty or non-finite x, candidates that are empty, not positive integers or repeated, N not above
-    the largest candidate's parameter count, bad options or a key that is not a jax.random key."""
+
+def fit_gmm_bic(key: Key[Array, ""], x: Float[ArrayLike, "N d"],
+                options: BICOptions = BICOptions()) -> tuple[GMM, BICScores]:
+    """The GMM whose number of components has the lowest BIC (LEVELSET TR §3.4, eq. 8).
+
+    Every candidate size t is fitted by the EM of `hog_jax.fit_gmm` (full covariances) as the best,
+    by likelihood, of `options.n_init` runs from k-means++ seeds; the chosen one minimises eq. 8,
+    BIC = -2 ln L + k ln N. All sizes and starts share one compilation and run as one `vmap`.
+
+    Args:
+        key: a `jax.random` key.
+        x: (N, d) points.
+        options: the candidates and the EM options (`BICOptions`).
+
+    Returns:
+        The chosen `GMM` and the BIC table (`BICScores`) of every candidate.
+
+    Raises:
+        ValueError: naming the argument for a key that is not a `jax.random` key, empty or
+            non-finite x, N not above the largest candidate's parameter count, or options that are
+            not a `BICOptions`.
+    """
     check_key(key, "key")
     x = as_array(x, "x", ndim=2, dtype=np.float32, min_value=-1e12, max_value=1e12)
-    cands = _check_candidates(candidates)
-    _check_fit_options(n_iter, n_init, reg, param_count)
-    return _fit_bic(key, x, cands, n_iter, n_init, reg, param_count, "x")
+    o = _check_bic_options(options)
+    return _fit_bic(key, x, o.candidates, o.n_iter, o.n_init, o.reg, o.param_count, "x")
 
 
 def _features(rgb, space: str):
@@ -215,18 +308,36 @@ def _check_video(frames, name: str) -> np.ndarray:
 
 
 def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T H W 3"],
-                                 person_masks: Bool[ArrayLike, "T H W"], candidates: Sequence[int] = (1, 2, 3, 4, 5),
-                                 max_pixels: int = 20000, space: str = "rgb", n_iter: int = 100, n_init: int = 3,
-                                 reg: float = 1e-5, param_count: str = "exact",
+                                 person_masks: Bool[ArrayLike, "T H W"], options: BICOptions = BICOptions(), *,
+                                 max_pixels: int = 20000, space: str = "rgb",
                                  ignore: Bool[ArrayLike, "T H W"] | None = None) -> ColourFit:
-    """Person and background GMMs from RGB frames (T, H, W, 3) in [0, 255] (those after the person has
-    entered) and the person's pixels (T, H, W) bool (TR §3.4), each with its size chosen by BIC.
-    `ignore` (T, H, W) bool: pixels that teach neither model (e.g. the skin, which has its own).
+    """The person's and the background's colour GMMs, each sized by BIC (LEVELSET TR §3.4, eq. 8).
 
+    The TR's protocol: the frames after the person has entered, with the person's pixels (the moving
+    regions, from the background model), give a person GMM and a background GMM (`fit_gmm_bic`).
     Each region is subsampled without replacement to n = min(max_pixels, person pixels, background
-    pixels) pixels. ValueError naming the argument for bad frames, masks of another shape or with
-    values other than 0/1, a region too small for BIC over the candidates (`person_masks`), or bad
-    options."""
+    pixels) pixels, the same number for both so that one compiled EM serves both.
+
+    Args:
+        key: a `jax.random` key (the subsampling and the fits).
+        frames: (T, H, W, 3) RGB frames in [0, 255].
+        person_masks: (T, H, W) bool, the person's pixels.
+        options: the candidates and the EM options (`BICOptions`).
+        max_pixels: the most pixels per region, >= 1.
+        space: the colour space, "rgb" (R, G, B / 255: the TR models the person's clothing colour)
+            or "chroma" ((Cr, Cb) / 255, as the skin model). Densities of different spaces are not
+            comparable: regions that compete in eq. 7 should share one space.
+        ignore: (T, H, W) bool, pixels that teach neither model (e.g. the skin, which has its own).
+
+    Returns:
+        A `ColourFit`: the structure, the models and both BIC tables.
+
+    Raises:
+        ValueError: naming the argument for a key that is not a `jax.random` key, bad frames, masks
+            of another shape or with values other than 0/1, a region too small for BIC over the
+            candidates (`person_masks`), options that are not a `BICOptions`, max_pixels < 1 or an
+            unknown space.
+    """
     check_key(key, "key")
     arr = _check_video(frames, "frames")
     masks = as_array(person_masks, "person_masks", dtype=None)
@@ -236,14 +347,14 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
         raise ValueError("person_masks: expected a boolean mask (or 0/1), got other values")
     masks = masks.astype(bool)
     keep = np.ones_like(masks) if ignore is None else ~as_array(ignore, "ignore", shape=masks.shape, dtype=bool)
-    cands = _check_candidates(candidates)
+    o = _check_bic_options(options)
+    cands = o.candidates
     n_max = check_int(max_pixels, "max_pixels", min_value=1)
     check_choice(space, "space", tuple(_SPACES))
-    _check_fit_options(n_iter, n_init, reg, param_count)
     flat = arr.reshape(-1, 3)
     regions = [np.flatnonzero((masks & keep).reshape(-1)), np.flatnonzero((~masks & keep).reshape(-1))]
     n = min(n_max, *(len(r) for r in regions))
-    need = gmm_n_params(cands[-1], _SPACES[space], param_count)
+    need = gmm_n_params(cands[-1], _SPACES[space], o.param_count)
     if n <= need:
         counts = ", ".join(f"{len(r)} {name}" for r, name in zip(regions, REGIONS))
         raise ValueError(f"person_masks: {counts} pixels; BIC over up to {cands[-1]} components needs more than "
@@ -253,7 +364,7 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
     fits = []
     for region, k_fit in zip(regions, (k_person, k_background)):
         x = np.asarray(_features(flat[rng.choice(region, n, replace=False)], space))
-        fits.append(_fit_bic(k_fit, x, cands, n_iter, n_init, reg, param_count, "person_masks"))
+        fits.append(_fit_bic(k_fit, x, cands, o.n_iter, o.n_init, o.reg, o.param_count, "person_masks"))
     (person, p_scores), (background, b_scores) = fits
     structure = ColourStructure(int(person.log_weights.shape[0]), int(background.log_weights.shape[0]), space)
     return ColourFit(structure, ColourModels(person, background), p_scores, b_scores)
@@ -266,9 +377,23 @@ def _log_likelihoods(models: ColourModels, x):
 
 def region_log_likelihoods(models: ColourModels, frames: Real[ArrayLike, "T H W 3"],
                            space: str = "rgb") -> Float[Array, "T R H W"]:
-    """log p(colour | region) of every pixel of RGB frames (T, H, W, 3) in [0, 255] under the person's
-    and the background's mixtures (`REGIONS` order), in the models' colour space `space` (a
-    `ColourFit.structure.space`): (T, 2, H, W) float32, the e_i of eq. 7."""
+    """log p(colour | region) of every pixel under the person's and the background's mixtures.
+
+    The e_i of LEVELSET TR eq. 7 for the person and the background (`REGIONS` order of this module:
+    person, background).
+
+    Args:
+        models: the `ColourModels`.
+        frames: (T, H, W, 3) RGB frames in [0, 255].
+        space: the models' colour space (a `ColourFit.structure.space`).
+
+    Returns:
+        (T, 2, H, W) float32 log-likelihoods.
+
+    Raises:
+        ValueError: naming the argument for frames that are not (T, H, W, 3) in [0, 255], an unknown
+            space, or a space of another dimension than the models'.
+    """
     arr = _check_video(frames, "frames")
     check_choice(space, "space", tuple(_SPACES))
     d = int(models.person.means.shape[-1])

@@ -1,6 +1,6 @@
 """Temporal segmentation of a demonstration into primitive OACs (LfD 2009 §III-D, Fig. 8): every
-frame is "object in hand" where the object segmentation found a mask (`phase_segmentation.
-object_masks`' `found`), the sequence is filtered over time, and each remaining period from a
+frame is "object in hand" where the object segmentation found a mask (`object_masks`' `found`),
+the sequence is filtered over time, and each remaining period from a
 pick-up (no object -> object) to a put-down (object -> no object) is one action.
 
 The filter: the text performs "an eroding and a dilating operation ... over time, to remove
@@ -26,8 +26,14 @@ __all__ = ["Periods", "filter_in_hand", "hold_undecided", "periods_in_hand"]
 
 
 class Periods(NamedTuple):
-    """pickup, putdown (M,) int: the first frame with and the first frame after the object in hand of
-    each period, in order; in_hand (T,) bool: the filtered per-frame classification."""
+    """The periods with an object in the hand: one primitive action each (LfD 2009 §III-D, Fig. 8).
+
+    Attributes:
+        pickup: (M,) int, the first frame with the object in hand of each period, in order.
+        putdown: (M,) int, the first frame after it (the last frame + 1 for a period cut by the end of
+            the recording).
+        in_hand: (T,) bool, the filtered per-frame classification.
+    """
 
     pickup: np.ndarray
     putdown: np.ndarray
@@ -46,10 +52,24 @@ def _dilate(x: np.ndarray, r: int) -> np.ndarray:
 
 
 def filter_in_hand(in_hand: Bool[ArrayLike, " T"], radius: int = 1) -> np.ndarray:
-    """The closing then opening of the module docstring (radius frames; 0: unchanged) -> (T,) bool.
-    A closing's dilation runs past the ends of the sequence, so the sequence is padded by `radius`
-    "no object" frames first (a period never grows beyond the recording). ValueError naming the
-    argument."""
+    """The temporal filter of LfD 2009 §III-D: a closing, then an opening, over time.
+
+    The text performs "an eroding and a dilating operation ... over time, to remove spurious positive
+    or negative classifications". An opening removes short positives but widens short gaps; a closing
+    fills short gaps; both kinds of error are named, so both are applied, each of `radius` frames (a
+    run shorter than 2 radius + 1 frames of either kind goes). The sequence is padded by `radius` "no
+    object" frames first, so that a period never grows beyond the recording.
+
+    Args:
+        in_hand: (T,) boolean (or 0/1) per-frame "object in hand".
+        radius: the filter's radius in frames, >= 0 (0: unchanged).
+
+    Returns:
+        (T,) bool.
+
+    Raises:
+        ValueError: naming the argument for a sequence that is not 1-D or not 0/1, or radius < 0.
+    """
     x = as_array(in_hand, "in_hand", ndim=1, dtype=None)
     if x.dtype != bool and not np.isin(x, (0, 1)).all():
         raise ValueError("in_hand: expected a boolean (or 0/1) sequence")
@@ -63,10 +83,22 @@ def filter_in_hand(in_hand: Bool[ArrayLike, " T"], radius: int = 1) -> np.ndarra
 
 
 def hold_undecided(in_hand: Bool[ArrayLike, " T"], decided: Bool[ArrayLike, " T"]) -> np.ndarray:
-    """(T,) bool: `in_hand` where `decided`, elsewhere the value of the last decided frame (False
-    before the first). Where the hand has not moved, eq. 1 of LfD §III-B equals the static
-    background's likelihood (r_m = 1) and a frame's mask says nothing about the object
-    (`phase_segmentation.ObjectSegmentation.hand_moved`). ValueError naming the argument."""
+    """Hold the last decided frame's classification where a frame cannot decide (LfD 2009 §III-B, D).
+
+    Where the hand has not moved, eq. 1 equals the static background's likelihood (r_m = 1) and a
+    frame's mask says nothing about the object (`ObjectSegmentation.hand_moved`).
+
+    Args:
+        in_hand: (T,) bool per-frame "object in hand".
+        decided: (T,) bool, the frames that decide.
+
+    Returns:
+        (T,) bool: `in_hand` where `decided`, elsewhere the value of the last decided frame (False
+        before the first).
+
+    Raises:
+        ValueError: naming the argument for sequences that are not 1-D or of different lengths.
+    """
     x = as_array(in_hand, "in_hand", ndim=1, dtype=bool)
     d = as_array(decided, "decided", shape=x.shape, dtype=bool)
     last = np.maximum.accumulate(np.where(d, np.arange(x.size), -1))
@@ -75,10 +107,28 @@ def hold_undecided(in_hand: Bool[ArrayLike, " T"], decided: Bool[ArrayLike, " T"
 
 def periods_in_hand(in_hand: Bool[ArrayLike, " T"], fps: float, radius: int = 1,
                     min_duration_s: float = 1.0, decided: Bool[ArrayLike, " T"] | None = None) -> Periods:
-    """Pick-up and put-down frames of a recording's per-frame "object in hand" (T,) at `fps` frames
-    per second: `hold_undecided` where `decided` (T,) is given, `filter_in_hand`, then periods
-    shorter than `min_duration_s` removed (module docstring). ValueError naming the argument (a
-    recording shorter than `min_duration_s`: `in_hand`)."""
+    """The pick-up and put-down frames of a recording (LfD 2009 §III-D, Fig. 8).
+
+    Every frame is "object in hand" where the object segmentation found a mask; the sequence is held
+    where undecided (`hold_undecided`, when `decided` is given) and filtered (`filter_in_hand`), and
+    each remaining period from a pick-up (no object -> object) to a put-down (object -> no object) at
+    least `min_duration_s` long (1 s in the paper) is one action. Frames outside the recording count
+    as "no object in hand".
+
+    Args:
+        in_hand: (T,) bool per-frame "object in hand" (`ObjectSegmentation.found`).
+        fps: frames per second, > 0.
+        radius: the filter's radius in frames (`filter_in_hand`).
+        min_duration_s: the shortest period kept, seconds, >= 0.
+        decided: (T,) bool, the frames whose classification counts (`hold_undecided`), or None.
+
+    Returns:
+        The `Periods`.
+
+    Raises:
+        ValueError: naming the argument for bad sequences, fps <= 0, min_duration_s < 0, or a
+            recording shorter than `min_duration_s` (`in_hand`).
+    """
     rate = check_real(fps, "fps", min_value=0.0, exclusive_min=True)
     shortest = check_real(min_duration_s, "min_duration_s", min_value=0.0)
     x = filter_in_hand(in_hand if decided is None else hold_undecided(in_hand, decided), radius)

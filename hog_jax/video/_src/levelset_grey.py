@@ -33,8 +33,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int, Real
 
-from hog_jax.video._src.levelset import (LevelSetOptions, LevelSetResult, LevelSetStructure, clip_scores,
-    labels_of, partition_sdf, run)
+from hog_jax.video._src.levelset_evolution import (LevelSetOptions, LevelSetResult, LevelSetStructure,
+                                                   clip_scores, labels_of, partition_sdf, run)
 from lfd_common import as_array
 
 __all__ = ["VAR_FLOOR", "chan_vese_scores", "chan_vese_segment"]
@@ -45,9 +45,21 @@ VAR_FLOOR = 1e-4  # a region's grey-level variance floor (sigma >= 0.01 of the [
 @partial(jax.jit, static_argnames=("gaussian",))
 def chan_vese_scores(grey: Float[ArrayLike, "*batch H W"], labels: Int[ArrayLike, "*batch H W"],
                      gaussian: bool = False) -> Float[Array, "*batch 2 H W"]:
-    """Scores e_k (..., 2, H, W) of the two regions {labels == 0} and {labels == 1} (other labels
-    belong to neither) for grey levels (..., H, W): -(I - c_k)^2, or log N(I; c_k, v_k) when
-    `gaussian` (module docstring). Jittable; no input checks."""
+    """The Chan-Vese region scores of two grey-level regions (jitted; no input checks).
+
+    Each region k of the partition (labels == k) is modelled by the mean c_k of its grey levels
+    (e_k = -(I - c_k)^2: Chan & Vese 1999 with lambda_1 = lambda_2 = 1) or, with `gaussian`, by its
+    mean and variance (e_k = log N(I; c_k, v_k), v_k floored at `VAR_FLOOR`). An empty region gets the
+    statistics of the whole frame.
+
+    Args:
+        grey: (..., H, W) grey levels.
+        labels: (..., H, W) the partition (0 and 1; other labels belong to neither region).
+        gaussian: use the mean and the variance (static).
+
+    Returns:
+        (..., 2, H, W) scores e_k for LEVELSET TR eq. 7.
+    """
     grey = jnp.asarray(grey, jnp.float32)
     labels = jnp.asarray(labels)
     masks = (labels[..., None, :, :] == jnp.arange(2)[:, None, None]).astype(jnp.float32)  # (..., 2, H, W)
@@ -74,7 +86,7 @@ def _checkerboard(shape, square: int):
 
 @dataclasses.dataclass(frozen=True)
 class _GreyRegions:
-    """The score model of `levelset.run` for grey frames (H, W) in [0, 1]."""
+    """The score model of `levelset_evolution.run` for grey frames (H, W) in [0, 1]."""
 
     gaussian: bool
     square: int = 5
@@ -95,11 +107,30 @@ class _GreyRegions:
 def chan_vese_segment(structure: LevelSetStructure, grey: Real[ArrayLike, "*batch H W"],
                       gaussian: bool = False, phi0: Float[ArrayLike, "*batch 2 H W"] | None = None,
                       options: LevelSetOptions = LevelSetOptions()) -> LevelSetResult:
-    """Two-region segmentation of grey frames (H, W) or (B, H, W) (any real range; each frame is
-    rescaled to [0, 1]) by the level sets of `levelset` with the region models of the module
-    docstring, from phi0 (2, H, W) / (B, 2, H, W) or the cold start. Independent frames (vmap).
-    Returns a `LevelSetResult` (labels 0, 1 or -1). ValueError naming the argument for a structure
-    with n_regions != 2, a wrong shape, NaN or inf pixels, bad options."""
+    """Two-region segmentation of grey frames by the competing level sets (LEVELSET TR eq. 7, §5).
+
+    The Chan-Vese region models of `chan_vese_scores`, re-estimated from the partition every
+    `options.refit_every` iterations inside the evolution, drive eq. 7 with the options, scales and
+    stopping rule of `evolve`, so that the method compares with scikit-image's `chan_vese` on the same
+    frames (the same energy for gaussian=False, curvature weight mu_skimage = alpha / 2). Each frame is
+    first rescaled to [0, 1]. Cold start: the region models of scikit-image's checkerboard partition
+    (squares of 5 pixels at the first scale) score the frame, and the level sets start as the signed
+    distances of the argmax partition of those scores.
+
+    Args:
+        structure: a `LevelSetStructure` with n_regions = 2.
+        grey: (H, W) or (B, H, W) grey frames, any real range.
+        gaussian: model each region by its mean and variance, not the mean alone.
+        phi0: (2, H, W) or (B, 2, H, W) start level sets, or None for the cold start.
+        options: the `LevelSetOptions`.
+
+    Returns:
+        A `LevelSetResult` (labels 0, 1 or -1), independent frames.
+
+    Raises:
+        ValueError: naming the argument for a structure with n_regions != 2, frames of a wrong shape,
+            NaN or inf pixels, a phi0 of another shape, or bad options.
+    """
     if not isinstance(structure, LevelSetStructure) or structure.n_regions != 2:
         raise ValueError(f"structure: expected a LevelSetStructure with n_regions=2, got {structure!r}")
     arr = as_array(grey, "grey", ndim=(2, 3), dtype=np.float32)

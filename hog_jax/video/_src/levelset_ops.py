@@ -36,16 +36,35 @@ def _half_angle(phi, epsilon):
 
 @jax.jit
 def heaviside(phi: Float[ArrayLike, "*shape"], epsilon: float = 1.5) -> Float[Array, "*shape"]:
-    """The smoothed Heaviside of eq. 5: 0 below -epsilon, 1 above epsilon, else
-    1/2 + phi / (2 epsilon) + sin(pi phi / epsilon) / (2 pi) (sin 2y = 2 sin y cos y)."""
+    """The smoothed Heaviside of LEVELSET TR eq. 5 (jitted).
+
+    0 below -epsilon, 1 above epsilon, else 1/2 + phi / (2 epsilon) + sin(pi phi / epsilon) / (2 pi).
+
+    Args:
+        phi: level-set values of any shape.
+        epsilon: the half-width, pixels, > 0.
+
+    Returns:
+        H(phi), of the shape of `phi`.
+    """
     x, sin, cos = _half_angle(phi, epsilon)
     return 0.5 + 0.5 * x + sin * cos / jnp.pi
 
 
 @jax.jit
 def dirac(phi: Float[ArrayLike, "*shape"], epsilon: float = 1.5) -> Float[Array, "*shape"]:
-    """The smoothed delta of eq. 6, H' of eq. 5: 0 outside [-epsilon, epsilon], else
-    (1 + cos(pi phi / epsilon)) / (2 epsilon) = cos^2(pi phi / (2 epsilon)) / epsilon."""
+    """The smoothed delta of LEVELSET TR eq. 6, the derivative of eq. 5's Heaviside (jitted).
+
+    0 outside [-epsilon, epsilon], else (1 + cos(pi phi / epsilon)) / (2 epsilon)
+    = cos^2(pi phi / (2 epsilon)) / epsilon.
+
+    Args:
+        phi: level-set values of any shape.
+        epsilon: the half-width, pixels, > 0.
+
+    Returns:
+        delta(phi), of the shape of `phi`.
+    """
     _, _, cos = _half_angle(phi, epsilon)
     return cos * cos / epsilon
 
@@ -82,16 +101,35 @@ def divergence(ny, nx):
 
 @jax.jit
 def curvature(phi: Float[ArrayLike, "*batch H W"]) -> Float[Array, "*batch H W"]:
-    """kappa = div(grad phi / |grad phi|) by central differences (replicated border), over the last
-    two axes. For phi = |x - c| - r (a circle's signed distance, positive outside) kappa = 1/|x - c|."""
+    """The curvature kappa = div(grad phi / |grad phi|) of LEVELSET TR eqs. 4 and 7 (jitted).
+
+    Central differences with a replicated border (TR §5), over the last two axes. For
+    phi = |x - c| - r (a circle's signed distance, positive outside) kappa = 1/|x - c|.
+
+    Args:
+        phi: (..., H, W) level sets.
+
+    Returns:
+        (..., H, W) kappa.
+    """
     ny, nx, _ = unit_normal(jnp.asarray(phi))
     return divergence(ny, nx)
 
 
 @jax.jit
 def contour_length(phi: Float[ArrayLike, "*batch R H W"], epsilon: float = 1.5) -> Float[Array, " *batch"]:
-    """Total contour length sum_i sum_x |grad H(phi_i)| = sum_i sum_x delta(phi_i) |grad phi_i| (the
-    chain rule; TR §5's stopping quantity), in pixels, over the last three axes."""
+    """The total contour length, LEVELSET TR §5's stopping quantity (jitted).
+
+    sum_i sum_x |grad H(phi_i)| = sum_i sum_x delta(phi_i) |grad phi_i| (the chain rule), in pixels,
+    over the last three axes.
+
+    Args:
+        phi: (..., R, H, W) level sets.
+        epsilon: the half-width of eq. 6, pixels, > 0.
+
+    Returns:
+        (...) the lengths.
+    """
     phi = jnp.asarray(phi)
     return jnp.sum(dirac(phi, epsilon) * unit_normal(phi)[2], axis=(-3, -2, -1))
 
@@ -112,10 +150,18 @@ def sq_edt(sites):
 
 @jax.jit
 def signed_distance(mask: Bool[ArrayLike, "*batch H W"]) -> Float[Array, "*batch H W"]:
-    """Signed Euclidean distance to the region's edge, positive inside `mask`: a pixel is its centre's
-    distance to the nearest pixel of the other side, minus half a pixel (so the zero level lies
-    between the two pixel centres and the complement's distance is exactly the negative). At most
-    H + W in magnitude (an empty or full mask)."""
+    """The exact signed Euclidean distance to a region's edge, positive inside (jitted).
+
+    A pixel's value is its centre's distance to the nearest pixel of the other side, minus half a
+    pixel, so the zero level lies between the two pixel centres and the complement's distance is
+    exactly the negative: the distance function that LEVELSET TR eqs. 4-7 assume of phi.
+
+    Args:
+        mask: (..., H, W) bool regions.
+
+    Returns:
+        (..., H, W) float32 distances, at most H + W in magnitude (an empty or full mask).
+    """
     m = jnp.asarray(mask, bool)
     inside = jnp.sqrt(sq_edt(~m)) - 0.5
     outside = jnp.sqrt(sq_edt(m)) - 0.5

@@ -1,18 +1,26 @@
 """Gradient phase Psi of Gaussian-blurred grey images (LfD 2009 §III-B; `phase_segmentation`'s module
-docstring): on whole frames (`frame_phase`, behind `phase_segmentation.gradient_phase`) and on
-crops around a window (`crop_phase`, what `segment_objects` computes), the two equal value for value.
+docstring): on whole frames (`frame_phase`, behind `gradient_phase`) and on crops around a window
+(`crop_phase`, what `segment_objects` computes), the two equal value for value.
 """
 from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int, Real
 
 __all__ = ["crop_phase", "frame_phase", "gaussian_kernel"]
 
 
 def gaussian_kernel(sigma: float) -> np.ndarray:
-    """Normalised samples of a Gaussian at the integers, radius round(4 sigma) (scipy's default)."""
+    """Normalised samples of a Gaussian at the integers (the blur before the phase, LfD 2009 §III-B).
+
+    Args:
+        sigma: the standard deviation, pixels, > 0.
+
+    Returns:
+        (2 r + 1,) float32 weights summing to 1, radius r = round(4 sigma) (scipy's default).
+    """
     radius = int(4.0 * sigma + 0.5)
     x = np.arange(-radius, radius + 1, dtype=np.float64)
     k = np.exp(-0.5 * (x / sigma) ** 2)
@@ -61,12 +69,25 @@ def _gradient(b, index, n: int):
     return jnp.where(index == 0, hi - mid, jnp.where(index == n - 1, mid - lo, (hi - lo) * 0.5))
 
 
-def crop_phase(image, centre, half: tuple[int, int], kernel):
-    """Psi (h, w) of the window of `image` (H, W) around `centre`, NaN outside the image: the window of
-    `gradient_phase(image)`, computed on a crop only. The crop has a margin of the kernel's radius
-    plus the gradient's one pixel; its samples beyond the image are those of the full frame's
-    symmetric padding, and the gradient is one-sided at the image's first and last rows and columns,
-    so every value is the same arithmetic on the same numbers as the full-frame computation."""
+def crop_phase(image: Real[Array, "H W"], centre: Int[Array, " 2"], half: tuple[int, int],
+               kernel: Float[ArrayLike, " K"]) -> Float[Array, "h w"]:
+    """The gradient phase Psi of a window of an image, computed on a crop only (LfD 2009 §III-B).
+
+    The window of `gradient_phase(image)`: the crop has a margin of the kernel's radius plus the
+    gradient's one pixel; its samples beyond the image are those of the full frame's symmetric
+    padding, and the gradient is one-sided at the image's first and last rows and columns, so every
+    value is the same arithmetic on the same numbers as the full-frame computation. Traceable; no
+    input checks.
+
+    Args:
+        image: (H, W) a grey image.
+        centre: (2,) int the window's centre (row, column).
+        half: (hh, hw) the window's half sizes (static).
+        kernel: (2 r + 1,) the blur (`gaussian_kernel`).
+
+    Returns:
+        (2 hh + 1, 2 hw + 1) Psi in degrees in [-90, 90), NaN outside the image.
+    """
     H, W = image.shape
     r = (kernel.shape[0] - 1) // 2
     rows = centre[0] + jnp.arange(-half[0] - r - 1, half[0] + r + 2)

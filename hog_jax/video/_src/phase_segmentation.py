@@ -31,6 +31,7 @@ the full frame's values (the same blur, border padding and one-sided border grad
 """
 from __future__ import annotations
 
+import dataclasses
 from functools import partial
 from typing import NamedTuple
 
@@ -44,21 +45,40 @@ from hog_jax._src.checks import check_key
 from hog_jax.video._src.phase import crop_phase, frame_phase, gaussian_kernel
 from lfd_common import as_array, check_int, check_real
 
-__all__ = ["LogRatio", "ObjectSegmentation", "gradient_phase", "object_masks", "segment_objects", "stereo_log_ratio",
-           "temporal_log_ratio"]
+__all__ = ["CHUNK", "LogRatio", "ObjectOptions", "ObjectSegmentation", "gradient_phase", "object_masks",
+           "segment_objects", "stereo_log_ratio", "temporal_log_ratio"]
 
 
 class LogRatio(NamedTuple):
-    """log_ratio (T, h, w): log P_fg - log P_bg of each window pixel (0 where not valid); valid
-    (T, h, w) bool: every sample the pixel needs lies inside the image."""
+    """A cue's log-likelihood ratio in the window around the hand (LfD 2009 §III-B, eqs. 1-4).
+
+    Attributes:
+        log_ratio: (T, h, w) log P_fg - log P_bg of each window pixel (0 where not valid).
+        valid: (T, h, w) bool, every sample the pixel needs lies inside the image.
+    """
 
     log_ratio: Float[Array, "T h w"]
     valid: Bool[Array, "T h w"]
 
 
 def gradient_phase(images: Float[ArrayLike, "*T H W"], blur_sigma: float = 2.0) -> Float[Array, "*T H W"]:
-    """Psi (degrees in [-90, 90)) of grey images (.., H, W) (module docstring). ValueError naming the
-    argument for NaN, fewer than 2 rows or columns, or blur_sigma <= 0."""
+    """The gradient phase Psi of Gaussian-blurred grey images (LfD 2009 §III-B).
+
+    Psi = arctan((dI/dy) / (dI/dx)) of the blurred image (the paper blurs "increasing image scale ...
+    making the phase less noisy"), central differences, in degrees in [-90, 90) (an orientation, not a
+    direction). Degrees, because the paper's sigma_m is "the width of the hand" (tens of pixels): in
+    radians no pixel could pass its threshold exp(0.01).
+
+    Args:
+        images: (..., H, W) grey images, H, W >= 2.
+        blur_sigma: the Gaussian blur, pixels, > 0.
+
+    Returns:
+        (..., H, W) Psi in degrees.
+
+    Raises:
+        ValueError: naming the argument for NaN, fewer than 2 rows or columns, or blur_sigma <= 0.
+    """
     arr = as_array(images, "images", dtype=np.float32)
     if arr.ndim < 2 or min(arr.shape[-2:]) < 2:
         raise ValueError(f"images: expected (..., H, W) with H, W >= 2, got shape {arr.shape}")
@@ -157,10 +177,27 @@ def _check_phase(phase, name: str) -> np.ndarray:
 
 def temporal_log_ratio(phase: Float[ArrayLike, "T H W"], hand: Float[ArrayLike, "T 2"],
                        half_window: tuple[int, int], sigma: float) -> LogRatio:
-    """log r_m (eq. 1 over the text's static background) of the window around the hand in frames
-    1..T-1 of a phase video (T, H, W) (`gradient_phase`) with the hand at `hand` (T, 2) (row,
-    column, rounded) -> `LogRatio` (T - 1, h, w). ValueError naming the argument (T < 2, NaN phases
-    or positions, sigma <= 0)."""
+    """The temporal cue log r_m of the window around the hand (LfD 2009 §III-B, eq. 1).
+
+    Foreground G(Psi_t(p_t + delta) - Psi_{t-1}(p_{t-1} + delta); 0, sigma_m): the object translated
+    with the hand; background the same with Psi_{t-1}(p_t + delta): the static scene. Eq. 2 as printed
+    repeats eq. 1's argument; the text ("the rest of the scene near the hand is static") compares the
+    same image position at t and t - 1, which is what is computed. Phase differences are taken modulo
+    180 degrees.
+
+    Args:
+        phase: (T, H, W) phase images (`gradient_phase`), T >= 2.
+        hand: (T, 2) the hand's position (row, column; rounded).
+        half_window: (hh, hw) the window's half sizes, >= 0.
+        sigma: sigma_m, degrees, > 0.
+
+    Returns:
+        A `LogRatio` (T - 1, h, w) of frames 1..T-1.
+
+    Raises:
+        ValueError: naming the argument for T < 2, NaN phases or positions, positions of another
+            shape, a bad window or sigma <= 0.
+    """
     psi = _check_phase(phase, "phase")
     if psi.shape[0] < 2:
         raise ValueError(f"phase: the temporal cue needs T >= 2 frames, got {psi.shape[0]}")
@@ -173,10 +210,32 @@ def stereo_log_ratio(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right
                      hand_left: Float[ArrayLike, "T 2"], hand_right: Float[ArrayLike, "T 2"],
                      half_window: tuple[int, int], sigma: float, max_offset: int,
                      n_samples: int = 100) -> LogRatio:
-    """log r_s (eq. 3 over eq. 4) of the window around the hand in the left phase images (T, H, W),
-    the hand at `hand_left` / `hand_right` (T, 2) (row, column, rounded) in the two views; eq. 4's N
-    = `n_samples` offsets drawn from `key` in [-max_offset, max_offset] -> `LogRatio` (T, h, w).
-    ValueError naming the argument (views of other shapes: `right`)."""
+    """The stereo cue log r_s of the window around the hand (LfD 2009 §III-B, eqs. 3-4).
+
+    Foreground G(Psi^L_t(p^L_t + delta) - Psi^R_t(p^R_t + delta); 0, sigma_s): the pixel at the hand's
+    disparity; background (eq. 4) the mean over N random disparity offsets rho_n (whole pixels,
+    uniform in [-max_offset, max_offset], along the rows of rectified views) of the same with
+    p^R_t + (0, rho_n): the pixel at any depth. A background sample outside the image is left out of
+    the mean.
+
+    Args:
+        key: a `jax.random` key (the offsets).
+        left: (T, H, W) phase images of the left view.
+        right: (T, H, W) phase images of the right view.
+        hand_left: (T, 2) the hand's position in the left view (row, column; rounded).
+        hand_right: (T, 2) the hand's position in the right view.
+        half_window: (hh, hw) the window's half sizes, >= 0.
+        sigma: sigma_s, degrees, > 0.
+        max_offset: the largest offset d, pixels, >= 1.
+        n_samples: eq. 4's N, >= 1.
+
+    Returns:
+        A `LogRatio` (T, h, w).
+
+    Raises:
+        ValueError: naming the argument for a key that is not a `jax.random` key, views of other
+            shapes (`right`), NaN phases or positions, or parameters out of range.
+    """
     check_key(key, "key")
     psi_l, psi_r = _check_phase(left, "left"), _check_phase(right, "right")
     if psi_l.shape != psi_r.shape:
@@ -241,12 +300,28 @@ def _fill_holes(masks: np.ndarray) -> np.ndarray:
 
 def object_masks(temporal: LogRatio, stereo: LogRatio, hand: Bool[ArrayLike, "T h w"], threshold: float = 0.01,
                  min_fraction: float = 0.1, morphology: int = 2) -> tuple[Bool[Array, "T h w"], Bool[Array, "T"]]:
-    """The object mask in each window (LfD §III-B, assumption 4, Fig. 3h-j): pixels where both cues
-    are valid and log r_m + log r_s > threshold (the paper's exp(0.01) on r_m r_s), the hand's own
-    pixels (`hand`, (T, h, w)) removed; of the 8-connected regions larger than `min_fraction` of
+    """The object mask in each window from both cues (LfD 2009 §III-B, assumption 4, Fig. 3h-j).
+
+    Pixels where both cues are valid and log r_m + log r_s > threshold (the paper's exp(0.01) on
+    r_m r_s), the hand's own pixels removed; of the 8-connected regions larger than `min_fraction` of
     the frame's foreground pixels the one nearest the window centre (the hand); its holes filled;
-    then `morphology` 3 x 3 erosions and as many dilations (OpenCV, all frames in one call). Returns
-    (masks (T, h, w), found (T,): a region was selected). ValueError naming the argument."""
+    then `morphology` 3 x 3 erosions and as many dilations (OpenCV, all frames in one call).
+
+    Args:
+        temporal: the temporal `LogRatio` (T, h, w).
+        stereo: the stereo `LogRatio` of the same shape.
+        hand: (T, h, w) bool, the hand's own pixels.
+        threshold: the joint log ratio a pixel must exceed.
+        min_fraction: the smallest region kept, as a fraction of the frame's foreground, in [0, 1].
+        morphology: erosions and dilations, >= 0.
+
+    Returns:
+        (masks (T, h, w) bool, found (T,) bool: a region was selected).
+
+    Raises:
+        ValueError: naming the argument for cues that are not `LogRatio`s or of other shapes
+            (`stereo`), a hand mask of another shape, or parameters out of range.
+    """
     for name, cue in (("temporal", temporal), ("stereo", stereo)):
         if not isinstance(cue, LogRatio):
             raise ValueError(f"{name}: expected a LogRatio, got {type(cue).__name__}")
@@ -268,13 +343,67 @@ def object_masks(temporal: LogRatio, stereo: LogRatio, hand: Bool[ArrayLike, "T 
     return jnp.asarray(mask), jnp.asarray(mask.any(axis=(1, 2)))
 
 
+@dataclasses.dataclass(frozen=True)
+class ObjectOptions:
+    """The options of `segment_objects` (LfD 2009 §III-B, eqs. 1-4, Fig. 3), validated on construction.
+
+    The window, sigma and the largest disparity offset scale with the hand in the image (the paper's
+    sigma_m is "the width of the hand"), so they have no default.
+
+    Attributes:
+        half_window: (rows, columns) half sizes (hh, hw) >= 0 of the window around the hand,
+            h x w = (2 hh + 1) x (2 hw + 1) pixels.
+        sigma: the phase-difference scale sigma_m = sigma_s of eqs. 1-4, degrees, > 0.
+        max_offset: the largest disparity offset d of eq. 4's background samples, pixels, >= 1.
+        blur_sigma: the Gaussian blur before the phase (`gradient_phase`), pixels, > 0.
+        n_samples: eq. 4's N random offsets, >= 1.
+        threshold: the log r_m + log r_s an object pixel must exceed (the paper's exp(0.01) on
+            r_m r_s).
+        min_fraction: the smallest region kept, as a fraction of the frame's foreground pixels, in
+            [0, 1].
+        morphology: 3 x 3 erosions and as many dilations after the hole filling, >= 0.
+        min_hand_motion: px (max norm) the rounded left hand position must move since the previous
+            frame for `ObjectSegmentation.hand_moved`, >= 0 (2: chosen on validation recordings).
+
+    Raises:
+        ValueError: naming the field for a value out of its range.
+    """
+
+    half_window: tuple[int, int]
+    sigma: float
+    max_offset: int
+    blur_sigma: float = 2.0
+    n_samples: int = 100
+    threshold: float = 0.01
+    min_fraction: float = 0.1
+    morphology: int = 2
+    min_hand_motion: float = 2.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "half_window", _check_window(self.half_window))
+        check_real(self.sigma, "sigma", min_value=0.0, exclusive_min=True)
+        check_int(self.max_offset, "max_offset", min_value=1)
+        check_real(self.blur_sigma, "blur_sigma", min_value=0.0, exclusive_min=True)
+        check_int(self.n_samples, "n_samples", min_value=1)
+        check_real(self.threshold, "threshold")
+        check_real(self.min_fraction, "min_fraction", min_value=0.0, max_value=1.0)
+        check_int(self.morphology, "morphology", min_value=0)
+        check_real(self.min_hand_motion, "min_hand_motion", min_value=0.0)
+
+
 class ObjectSegmentation(NamedTuple):
-    """The object in the hand's window of each left frame: masks (T, h, w) bool, found (T,) bool
-    (frame 0, without a previous frame, is never found), hand_moved (T,) bool: the rounded left hand
-    position moved at least `min_hand_motion` px (max norm) since the previous frame (False at
-    frame 0); where it did not, eq. 1 equals the static background (r_m = 1) and `found` rests on
-    the stereo cue alone, which also passes the table and body at the hand's depth
-    (`events.hold_undecided`); and both cues (`LogRatio`, frames 1..T-1)."""
+    """The object in the hand's window of each left frame (LfD 2009 §III-B, Fig. 3).
+
+    Attributes:
+        masks: (T, h, w) bool object masks.
+        found: (T,) bool, a region was selected (frame 0, without a previous frame, is never found).
+        hand_moved: (T,) bool, the rounded left hand position moved at least `min_hand_motion` px (max
+            norm) since the previous frame (False at frame 0); where it did not, eq. 1 equals the static
+            background (r_m = 1) and `found` rests on the stereo cue alone, which also passes the table
+            and body at the hand's depth (`hold_undecided`).
+        temporal: the temporal `LogRatio` of frames 1..T-1.
+        stereo: the stereo `LogRatio` of frames 1..T-1.
+    """
 
     masks: Bool[Array, "T h w"]
     found: Bool[Array, " T"]
@@ -338,31 +467,48 @@ def _check_frames(images, name: str, shape=None) -> np.ndarray:
 
 def segment_objects(key: Key[Array, ""], left: Float[ArrayLike, "T H W"], right: Float[ArrayLike, "T H W"],
                     hand_left: Float[ArrayLike, "T 2"], hand_right: Float[ArrayLike, "T 2"],
-                    hand_masks: Bool[ArrayLike, "T H W"], half_window: tuple[int, int], sigma: float,
-                    max_offset: int, blur_sigma: float = 2.0, n_samples: int = 100, threshold: float = 0.01,
-                    min_fraction: float = 0.1, morphology: int = 2, min_hand_motion: float = 2.0) -> ObjectSegmentation:
-    """LfD §III-B end to end for grey stereo frames (T, H, W): the temporal and stereo cues around the
-    hand (those of `temporal_log_ratio` and `stereo_log_ratio` on `gradient_phase` of both views,
-    positions (T, 2) (row, column) in each view), and `object_masks` without the hand's pixels
-    (`hand_masks` (T, H, W) in the left view); `hand_moved` with `min_hand_motion` px (2: chosen on
-    validation recordings, README). The phase is computed only on crops around the windows that the
-    cues read (`_cues`), with the values of the full frames'. ValueError naming the argument."""
+                    hand_masks: Bool[ArrayLike, "T H W"], options: ObjectOptions) -> ObjectSegmentation:
+    """The object in the hand from gradient-phase differences, end to end (LfD 2009 §III-B, eqs. 1-4).
+
+    The temporal and stereo cues around the hand (those of `temporal_log_ratio` and
+    `stereo_log_ratio` on `gradient_phase` of both views), then `object_masks` without the hand's
+    own pixels (Fig. 3h-j). The phase is computed only on crops around the windows that the cues
+    read, with the values of the full frames' (the same blur, border padding and one-sided border
+    gradient).
+
+    Args:
+        key: a `jax.random` key (eq. 4's disparity offsets).
+        left: (T, H, W) grey frames of the left view, T >= 2 (8-bit or real).
+        right: (T, H, W) grey frames of the right view, rectified.
+        hand_left: (T, 2) the hand's position (row, column; rounded) in the left view.
+        hand_right: (T, 2) the hand's position in the right view.
+        hand_masks: (T, H, W) the hand's pixels in the left view, removed from the object.
+        options: the window, the cues' and the masks' options (`ObjectOptions`).
+
+    Returns:
+        An `ObjectSegmentation`: masks (T, h, w) and found (T,) (frame 0, without a previous frame,
+        is never found), hand_moved (T,), and both cues of frames 1..T-1.
+
+    Raises:
+        ValueError: naming the argument for a key that is not a `jax.random` key, frames that are
+            not (T, H, W) with T >= 2 or of different shapes (`right`), NaN frames or positions,
+            positions or masks of another shape, or options that are not an `ObjectOptions`.
+    """
     check_key(key, "key")
-    min_motion = check_real(min_hand_motion, "min_hand_motion", min_value=0.0)
+    if not isinstance(options, ObjectOptions):
+        raise ValueError(f"options: expected an ObjectOptions, got {type(options).__name__}")
+    o = options
     frames_l = _check_frames(left, "left")
     frames_r = _check_frames(right, "right", frames_l.shape)
-    blur = check_real(blur_sigma, "blur_sigma", min_value=0.0, exclusive_min=True)
     centres_l = _check_positions(hand_left, "hand_left", frames_l.shape[0])
     centres_r = _check_positions(hand_right, "hand_right", frames_l.shape[0])
     hands = as_array(hand_masks, "hand_masks", shape=frames_l.shape, dtype=bool)
-    s = check_real(sigma, "sigma", min_value=0.0, exclusive_min=True)
-    d = check_int(max_offset, "max_offset", min_value=1)
-    counts = _offset_counts(key, check_int(n_samples, "n_samples", min_value=1), d)
+    counts = _offset_counts(key, o.n_samples, o.max_offset)
     temporal, stereo, in_window = _cues(jnp.asarray(frames_l), jnp.asarray(frames_r), jnp.asarray(hands),
                                         jnp.asarray(centres_l), jnp.asarray(centres_r), counts,
-                                        gaussian_kernel(blur), np.float32(s), _check_window(half_window))
-    masks, found = object_masks(temporal, stereo, in_window, threshold, min_fraction, morphology)
+                                        gaussian_kernel(float(o.blur_sigma)), np.float32(o.sigma), o.half_window)
+    masks, found = object_masks(temporal, stereo, in_window, o.threshold, o.min_fraction, o.morphology)
     none = jnp.zeros((1, *masks.shape[1:]), bool)
-    moved = np.concatenate([[False], np.abs(np.diff(centres_l, axis=0)).max(axis=1) >= min_motion])
+    moved = np.concatenate([[False], np.abs(np.diff(centres_l, axis=0)).max(axis=1) >= o.min_hand_motion])
     return ObjectSegmentation(jnp.concatenate([none, masks]), jnp.concatenate([jnp.zeros(1, bool), found]),
                               jnp.asarray(moved), temporal, stereo)

@@ -47,6 +47,7 @@ the light: it follows the mean change of the pixels learnt in the same frame (`f
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import partial
 from typing import NamedTuple
 
@@ -59,12 +60,12 @@ from hog_jax._src.checks import check_key
 from hog_jax.video._src import background_kernel as bgk
 from hog_jax.video._src.background import check_options as check_background_options
 from hog_jax.video._src.background import BackgroundOptions, BackgroundStructure, run_background
-from hog_jax.video._src.colour_models import ColourFit, fit_person_background_models
-from hog_jax.video._src import levelset as levelset
-from hog_jax.video._src.levelset import LevelSetOptions, LevelSetStructure
+from hog_jax.video._src.colour_models import BICOptions, ColourFit, fit_person_background_models
+from hog_jax.video._src import levelset_evolution as levelset
+from hog_jax.video._src.levelset_evolution import LevelSetOptions, LevelSetStructure
 from hog_jax._src.segment import GMM, fit_gmm, gmm_log_prob, median3
 from hog_jax.video._src.stereo import StereoCamera
-from hog_jax.video._src.tracks import HandFacePositions, hand_face_positions
+from hog_jax.video._src.tracks import HandFaceOptions, HandFacePositions, hand_face_positions
 from lfd_common import as_array, check_int, check_real
 
 __all__ = ["REGIONS", "StereoSegmentation", "VideoModels", "VideoOptions", "VideoSegmentation", "fit_skin",
@@ -79,7 +80,13 @@ _NOT_MOVING = -1e4
 
 
 class VideoModels(NamedTuple):
-    """The three colour mixtures over RGB / 255 (each a `segment.GMM` with P = 3)."""
+    """The three colour mixtures of the region scores, over RGB / 255 (LEVELSET TR §3.3-3.4).
+
+    Attributes:
+        skin: the skin `hog_jax.GMM` (P = 3; `fit_skin`).
+        person: the person's `hog_jax.GMM`, learnt at the start of the recording.
+        background: the background's `hog_jax.GMM`, learnt likewise.
+    """
 
     skin: GMM
     person: GMM
@@ -87,17 +94,29 @@ class VideoModels(NamedTuple):
 
 
 class VideoOptions(NamedTuple):
-    """motion_penalty (nats, >= 0) and object_margin (nats) of the region scores (module docstring);
-    follow_light: the held pixels' background models follow the frame's mean change of the learnt
-    ones (`follow_light`); the background model's and the level sets' options; person_frames: how
-    many frames before `start` teach the person and background GMMs; skin_match_quantile in (0, 1):
-    the skin model's match threshold (module docstring). The level sets re-seed a region where its score
-    beats every other by 3 nats (`LevelSetOptions.reseed_margin`): a hand hidden in one frame comes
-    back in the next. coarse_scale: TR §5's coarse scale (a quarter of each side) before the fine one on
-    frames from 240 x 320 up (`_coarse`); False: the fine scale alone. At a quarter of 240 x 320 a
-    hand held out from the body is 2-3 pixels wide, averaged with the sleeve into "person", and the
-    fine scale, started from there, keeps it person where skin beats person by less than the re-seed
-    margin (issue 21: a pointing hand was skin in 8 of 25 frames with it, 18 without)."""
+    """The options of the video front end (LEVELSET TR §3-5).
+
+    Attributes:
+        motion_penalty: nats, >= 0, the background's score loses this where the background model
+            sees motion (a moving pixel is not background whatever its colour).
+        object_margin: nats added to the object's uniform score (log 1 = 0) on moving pixels (TR §3.6,
+            §4: "pixels that are not matched to any of our three models, and that are moving").
+        follow_light: the held pixels' background models follow the frame's mean change of the learnt
+            ones (`follow_light`).
+        person_frames: how many frames before `start` teach the person and background GMMs, >= 1.
+        skin_match_quantile: in (0, 1), the skin model's match threshold (TR §3.6): a colour whose skin
+            density is at least that of this quantile of the model's own draws is skin, and teaches
+            neither the person nor the background model.
+        background: the background model's `BackgroundOptions`.
+        levelset: the level sets' `LevelSetOptions`; by default they re-seed a region where its score
+            beats every other by 3 nats (`reseed_margin`), so that a hand hidden in one frame comes
+            back in the next.
+        coarse_scale: TR §5's coarse scale (a quarter of each side) before the fine one on frames
+            from 240 x 320 up; False: the fine scale alone. At a quarter of 240 x 320 a hand held out
+            from the body is 2-3 pixels wide, averaged with the sleeve into "person", and the fine
+            scale, started from there, keeps it person where skin beats person by less than the
+            re-seed margin.
+    """
 
     motion_penalty: float = 4.0
     object_margin: float = 0.0
@@ -110,10 +129,17 @@ class VideoOptions(NamedTuple):
 
 
 class VideoSegmentation(NamedTuple):
-    """labels (.., T, H, W) int8 in `REGIONS` order (-1: boundary); frames before `start` carry the
-    training phase's answer (1 where the background model sees motion, else 0). foreground
-    (.., T, H, W) bool: the background model's motion mask. iterations (.., T) int32:
-    level-set iterations at the fine scale (0 before `start`); converged (.., T) bool."""
+    """The region masks of a video (LEVELSET TR §3-5).
+
+    Leading axes (.., T): (T,) or (B, T).
+
+    Attributes:
+        labels: (.., T, H, W) int8 in `REGIONS` order (-1: boundary); frames before `start` carry the
+            training phase's answer (1 where the background model sees motion, else 0).
+        foreground: (.., T, H, W) bool, the background model's motion mask.
+        iterations: (.., T) int32 level-set iterations at the fine scale (0 before `start`).
+        converged: (.., T) bool, the level sets stopped by the contour-length rule.
+    """
 
     labels: Int[Array, "*T H W"]
     foreground: Bool[Array, "*T H W"]
@@ -122,7 +148,13 @@ class VideoSegmentation(NamedTuple):
 
 
 class StereoSegmentation(NamedTuple):
-    """Both views' `VideoSegmentation` and the tracked hand-minus-face positions (`tracks`)."""
+    """Both views' masks and the tracked hand-minus-face positions (`segment_stereo`).
+
+    Attributes:
+        left: the left view's `VideoSegmentation`.
+        right: the right view's `VideoSegmentation`.
+        positions: the `HandFacePositions`.
+    """
 
     left: VideoSegmentation
     right: VideoSegmentation
@@ -134,8 +166,21 @@ def _unit_rgb(frames):
 
 
 def fit_skin(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], n_components: int = 4, n_iter: int = 100) -> GMM:
-    """The skin GMM of TR §3.3 (4 components by default) over RGB / 255 of skin pixels (N, 3) in
-    [0, 255], by `segment.fit_gmm`. ValueError naming the argument."""
+    """The skin GMM of LEVELSET TR §3.3 over RGB / 255 of skin pixels (by `hog_jax.fit_gmm`).
+
+    Args:
+        key: a `jax.random` key.
+        skin_rgb: (N, 3) skin pixels, RGB in [0, 255].
+        n_components: the mixture's components (TR: 4).
+        n_iter: EM iterations.
+
+    Returns:
+        The skin `hog_jax.GMM` (P = 3).
+
+    Raises:
+        ValueError: naming the argument for pixels that are not (N, 3) in [0, 255], or as
+            `hog_jax.fit_gmm`.
+    """
     x = as_array(skin_rgb, "skin_rgb", shape=(None, 3), min_value=0, max_value=255)
     return fit_gmm(key, np.asarray(x, np.float32) / 255.0, n_components=n_components, n_iter=n_iter)
 
@@ -164,14 +209,32 @@ def _check_start(start, n_frames: int, person_frames: int) -> int:
 
 
 def fit_video_models(key: Key[Array, ""], skin: GMM, frames: Real[ArrayLike, "T H W 3"], start: int,
-                     options: VideoOptions = VideoOptions(), candidates=(1, 2, 3, 4, 5),
+                     options: VideoOptions = VideoOptions(), candidates: Sequence[int] = (1, 2, 3, 4, 5),
                      max_pixels: int = 20000) -> tuple[VideoModels, ColourFit]:
-    """The recording's colour models (TR §3.4): the Stauffer–Grimson model runs over frames[:start];
-    its foreground in the `options.person_frames` frames before `start` (median-filtered) is the
-    person, the rest the background, both without the pixels the skin model matches
-    (`skin_threshold`); both GMMs chosen by BIC over `candidates`. Returns the models
-    and the BIC fit. ValueError naming the argument (`start` must leave at least one empty frame
-    before the person frames)."""
+    """The recording's colour models, learnt at its start (LEVELSET TR §3.4).
+
+    The Stauffer–Grimson model runs over frames[:start]; its foreground in the
+    `options.person_frames` frames before `start` (median-filtered) is the person, the rest the
+    background, both without the pixels the skin model matches (`VideoOptions.skin_match_quantile`);
+    both GMMs are chosen by BIC over `candidates` (`fit_person_background_models`).
+
+    Args:
+        key: a `jax.random` key.
+        skin: the skin `hog_jax.GMM` (`fit_skin`).
+        frames: (T, H, W, 3) RGB frames in [0, 255]: the empty scene, then the person entering.
+        start: the first frame of the segmentation phase; it must leave at least one empty frame
+            before the person frames.
+        options: the `VideoOptions`.
+        candidates: the numbers of components BIC chooses from.
+        max_pixels: the most pixels per region for the fits.
+
+    Returns:
+        (`VideoModels`, the BIC fit `ColourFit`).
+
+    Raises:
+        ValueError: naming the argument for a key that is not a `jax.random` key, bad frames, a start
+            out of range, or bad options or candidates.
+    """
     check_key(key, "key")
     arr = _check_frames(frames, "frames")
     n = check_int(options.person_frames, "person_frames", min_value=1)
@@ -180,7 +243,7 @@ def fit_video_models(key: Key[Array, ""], skin: GMM, frames: Real[ArrayLike, "T 
     person = np.asarray(median3(foreground[start - n:start]))
     frames_n = arr[start - n:start]
     skin_like = np.asarray(gmm_log_prob(skin, _unit_rgb(frames_n))) >= skin_threshold(skin, options.skin_match_quantile)
-    fit = fit_person_background_models(key, frames_n, person, candidates=candidates, max_pixels=max_pixels,
+    fit = fit_person_background_models(key, frames_n, person, BICOptions(candidates=candidates), max_pixels=max_pixels,
                                        space="rgb", ignore=skin_like)
     return VideoModels(skin, fit.models.person, fit.models.background), fit
 
@@ -222,15 +285,27 @@ def _checked_follow(options: VideoOptions):
 
 def follow_light(mu_before: Float[Array, "K C N"], mu_after: Float[Array, "K C N"], x: Float[Array, "C N"],
                  followed: Bool[Array, "N"], held: Bool[Array, "N"]) -> Float[Array, "K C N"]:
-    """The means after this frame's update with the held pixels' components scaled by 1 + s_c, s_c
-    (per channel) the relative change of the `followed` pixels' means this frame:
-    sum_n sum_k (mu_after - mu_before)[k, c, n] / sum_n x[c, n] over the followed pixels (learnt and
-    matched, so one component moved, by rho (X - mu)). The TR's hold (§3.5) freezes a pixel's model
-    while the person covers it; the scene's light keeps changing, and a held wall pixel whose light
-    had drifted beyond the 2.5 sigma match when the arm left it stayed foreground, and then
-    "person", for good (issue 18's paper run, test person 2). The light of the demonstration scene
-    is one scale on every lamp, a global gain; a real camera's exposure and daylight change the same
-    way to first order. s = 0 where nothing was followed."""
+    """Scale the held pixels' background means by the light change of the learnt pixels (LEVELSET TR §3.5).
+
+    The TR's hold freezes a pixel's model while the person covers it; the scene's light keeps
+    changing, and a held wall pixel whose light had drifted beyond the 2.5 sigma match when the arm
+    left it would stay foreground, and then "person", for good. The held pixels' components are scaled
+    by 1 + s_c, s_c (per channel) the relative change of the followed pixels' means this frame:
+    sum_n sum_k (mu_after - mu_before)[k, c, n] / sum_n x[c, n]. The light of a demonstration scene is
+    one scale on every lamp, a global gain; a real camera's exposure and daylight change the same way
+    to first order. Traceable; no input checks.
+
+    Args:
+        mu_before: (K, C, N) the means before this frame's update (pixels last).
+        mu_after: (K, C, N) the means after it.
+        x: (C, N) the frame.
+        followed: (N,) bool, the pixels learnt and matched (one component moved, by rho (X - mu)).
+        held: (N,) bool, the pixels not learnt.
+
+    Returns:
+        (K, C, N) the means after the update, the held pixels' scaled (s = 0 where nothing was
+        followed).
+    """
     w = followed.astype(mu_after.dtype)
     moved = jnp.sum(jnp.sum(mu_after - mu_before, axis=0) * w, axis=-1)  # (C,)
     level = jnp.sum(x * w, axis=-1)
@@ -240,8 +315,26 @@ def follow_light(mu_before: Float[Array, "K C N"], mu_after: Float[Array, "K C N
 
 def region_scores(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], foreground: Bool[ArrayLike, "*T H W"],
                   options: VideoOptions = VideoOptions()) -> Float[Array, "*T 4 H W"]:
-    """e_i(x) of the four regions (module docstring) for frames (.., T, H, W, 3) in [0, 255] and the
-    background model's foreground (.., T, H, W). ValueError naming the argument."""
+    """The region scores e_i(x) of LEVELSET TR eq. 7 for the four regions (TR §3.2-3.6).
+
+    All are log-densities of the pixel's RGB / 255 in the unit cube, so that they compete on one
+    scale: skin and person by their GMMs; background by its GMM, minus `motion_penalty` where the
+    background model sees motion; object the uniform density plus `object_margin` on moving pixels
+    only. (`segment_recording` also mixes the background's own Stauffer–Grimson density in.)
+
+    Args:
+        models: the `VideoModels`.
+        frames: (.., T, H, W, 3) RGB frames in [0, 255].
+        foreground: (.., T, H, W) the background model's foreground.
+        options: the `VideoOptions` (motion_penalty, object_margin).
+
+    Returns:
+        (.., T, 4, H, W) scores in `REGIONS` order.
+
+    Raises:
+        ValueError: naming the argument for frames that are not (.., T, H, W, 3) in [0, 255], a
+            foreground of another shape, or bad options.
+    """
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     fg = as_array(foreground, "foreground", shape=arr.shape[:-1], dtype=None)
     densities = colour_log_densities(models, jnp.asarray(arr))
@@ -318,12 +411,28 @@ def _segment_jit(structure: LevelSetStructure, models: VideoModels, frames, star
 
 def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], start: int,
                       options: VideoOptions = VideoOptions()) -> VideoSegmentation:
-    """Masks of a video (T, H, W, 3) or a batch of videos (B, T, H, W, 3) (uint8 or real in [0, 255])
-    whose segmentation phase begins at frame `start` (the frames before it: the empty scene, then
-    the person entering, TR §3). The background model runs over all frames, from `start` on not
-    learning the held pixels (the previous frame's person, skin or object that still has the person's
-    or the skin's colour), in one scan with the level sets, which warm-start from frame to frame
-    (module docstring). ValueError naming the argument."""
+    """Skin, person, object and background masks of a video (LEVELSET TR §3-5).
+
+    The background model runs over all frames; from `start` on it does not learn the held pixels (the
+    previous frame's person, skin or object that still has the person's or the skin's colour, TR
+    §3.5), in one `lax.scan` with the level sets, which warm-start from frame to frame (TR §3.7). The
+    background's score is the equal mixture of its GMM and the pixel's own Stauffer–Grimson mixture
+    before this frame's update (eq. 9), so that a pixel that still matches its own model stays
+    background however far the light has moved its colour.
+
+    Args:
+        models: the `VideoModels` (`fit_video_models`).
+        frames: (T, H, W, 3) a video or (B, T, H, W, 3) a batch, uint8 or real in [0, 255]; the frames
+            before `start` are the empty scene, then the person entering (TR §3).
+        start: the first frame of the segmentation phase, 1 <= start < T.
+        options: the `VideoOptions`.
+
+    Returns:
+        A `VideoSegmentation` with the leading axes of the frames.
+
+    Raises:
+        ValueError: naming the argument for bad frames, a start out of range, or bad options.
+    """
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     batched = arr.ndim == 5
     start = _check_start(start, arr.shape[-4], 0)
@@ -342,12 +451,31 @@ def segment_recording(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], 
 
 def segment_stereo(models: VideoModels, left: Real[ArrayLike, "T H W 3"], right: Real[ArrayLike, "T H W 3"],
                    start: int, camera: StereoCamera, options: VideoOptions = VideoOptions(),
-                   **tracking) -> StereoSegmentation:
-    """The pipeline of issue 18: stereo frames (T, H, W, 3) -> masks of both views (one batched
-    `segment_recording`) -> skin blobs tracked as hand and face, objects tracked (`tracks`) -> the
-    hand-minus-face position in the left image (2-D) and triangulated (3-D). `tracking`: keyword
-    options of `tracks.hand_face_positions`. ValueError naming the argument (a pair of other sizes:
-    `right`)."""
+                   tracking: HandFaceOptions = HandFaceOptions()) -> StereoSegmentation:
+    """The stereo front end: both views' masks and the tracked hand-minus-face position.
+
+    Stereo frames -> masks of both views (one batched `segment_recording`, LEVELSET TR §3-5) ->
+    skin blobs tracked as hand and face, objects tracked (`hand_face_positions`, LEVELSET TR §3.7)
+    -> the hand-minus-face position in the left image (2-D) and triangulated (3-D) (LfD 2009
+    §III-A).
+
+    Args:
+        models: the recording's colour models (`fit_video_models`).
+        left: (T, H, W, 3) RGB frames of the left view, uint8 or real in [0, 255].
+        right: (T, H, W, 3) RGB frames of the right view, rectified.
+        start: the first frame of the segmentation phase (see `segment_recording`).
+        camera: the rectified pair (`StereoCamera`), its image H x W.
+        options: the segmentation options (`VideoOptions`).
+        tracking: the blob and tracker options (`HandFaceOptions`); the skin and object labels are
+            `SKIN` and `OBJECT`.
+
+    Returns:
+        A `StereoSegmentation`: both views' `VideoSegmentation` and the `HandFacePositions`.
+
+    Raises:
+        ValueError: naming the argument, as `segment_recording` and `hand_face_positions`, and for a
+            pair of other sizes (`right`).
+    """
     a = _check_frames(left, "left")
     b = _check_frames(right, "right")
     if a.shape != b.shape:
@@ -355,5 +483,6 @@ def segment_stereo(models: VideoModels, left: Real[ArrayLike, "T H W 3"], right:
     both = segment_recording(models, np.stack([a, b]), start, options)
     views = jax.tree.map(lambda v: v[0], both), jax.tree.map(lambda v: v[1], both)
     labels = np.asarray(both.labels)
-    positions = hand_face_positions(labels[0], labels[1], camera, skin_label=SKIN, object_label=OBJECT, **tracking)
+    positions = hand_face_positions(labels[0], labels[1], camera, skin_label=SKIN, object_label=OBJECT,
+                                    options=tracking)
     return StereoSegmentation(*views, positions)

@@ -5,7 +5,7 @@ Frames: points are in the *left camera frame* (metres): x to the image's right, 
 optical axis. The right camera is the left one moved by `baseline_m` along +x (a rectified pair: the
 same intrinsics, parallel optical axes), so a point (X, Y, Z) has the right-camera coordinates
 (X - b, Y, Z). Pixels are (x, y) = (column, row) with pixel centres at integer coordinates (the
-convention of `hog_jax.blobs`); the principal point defaults to the image centre ((W - 1) / 2,
+convention of `blobs`); the principal point defaults to the image centre ((W - 1) / 2,
 (H - 1) / 2) in that convention, which is where a MuJoCo/OpenGL camera puts its optical axis.
 
     x = f X / Z + cx,    y = f Y / Z + cy,    x_right = x - f b / Z        (disparity d = f b / Z)
@@ -35,8 +35,26 @@ __all__ = ["StereoCamera", "StereoProjection", "Triangulation", "camera_matrices
 
 @dataclasses.dataclass(frozen=True)
 class StereoCamera:
-    """A rectified stereo pair: focal length (pixels), baseline (metres, right camera at +x), image
-    size (pixels) and principal point (cx, cy) in pixels (default: the image centre, see the module)."""
+    """A rectified stereo camera pair (LfD 2009 §III-A: the hand-minus-face position in 3-D).
+
+    Points are in the left camera frame (metres): x to the image's right, y down, z along the optical
+    axis; the right camera is the left one moved by `baseline_m` along +x (the same intrinsics,
+    parallel optical axes). Pixels are (x, y) = (column, row), pixel centres at integer coordinates:
+    x = f X / Z + cx, y = f Y / Z + cy, x_right = x - f b / Z (disparity d = f b / Z).
+
+    Attributes:
+        focal_px: the focal length f, pixels, > 0.
+        baseline_m: the baseline b, metres, > 0 (the right camera at +x).
+        width: the image width W, pixels, >= 1.
+        height: the image height H, pixels, >= 1.
+        cx: the principal point's x, pixels (default the image centre (W - 1) / 2, where a
+            MuJoCo/OpenGL camera puts its optical axis).
+        cy: the principal point's y, pixels (default (H - 1) / 2).
+
+    Raises:
+        ValueError: naming the field for a non-positive focal length, baseline or size, or a
+            non-finite principal point.
+    """
 
     focal_px: float
     baseline_m: float
@@ -64,7 +82,13 @@ class StereoCamera:
 
 
 class StereoProjection(NamedTuple):
-    """left, right (..., 2) pixels (x, y); in_front (...) bool, False for Z <= 0 (pixels 0 there)."""
+    """Pixels of points in both views (`project`).
+
+    Attributes:
+        left: (..., 2) pixels (x, y) in the left image.
+        right: (..., 2) pixels (x, y) in the right image.
+        in_front: (...) bool, False for Z <= 0 (pixels 0 there).
+    """
 
     left: Float[Array, "*batch 2"]
     right: Float[Array, "*batch 2"]
@@ -72,7 +96,12 @@ class StereoProjection(NamedTuple):
 
 
 class Triangulation(NamedTuple):
-    """xyz (..., 3) metres in the left camera frame; valid (...) bool, False for disparity <= 0 (xyz 0)."""
+    """Points from matching pixels of both views (`triangulate`).
+
+    Attributes:
+        xyz: (..., 3) metres in the left camera frame.
+        valid: (...) bool, False for disparity <= 0 (xyz 0 there).
+    """
 
     xyz: Float[Array, "*batch 3"]
     valid: Bool[Array, "*batch"]
@@ -93,7 +122,21 @@ def _namespace(name: str, value, last: int):
 
 
 def project(camera: StereoCamera, points: Float[ArrayLike, "*batch 3"]) -> StereoProjection:
-    """Pixels of left-camera-frame points (..., 3) in both views -> `StereoProjection` (..., 2) each."""
+    """Pixels of points in both views of a rectified pair (LfD 2009 §III-A).
+
+    NumPy input is computed in float64 NumPy; a `jax.Array` (also inside `jit` / `vmap`) with
+    `jax.numpy` in its own dtype. "Not found" is a flag, never a clamp.
+
+    Args:
+        camera: the `StereoCamera`.
+        points: (..., 3) points in the left camera frame, metres.
+
+    Returns:
+        A `StereoProjection`: left and right pixels (..., 2) and in_front (...).
+
+    Raises:
+        ValueError: `points` of a shape other than (..., 3), or not finite (concrete input).
+    """
     p, xp = _namespace("points", points, 3)
     z = p[..., 2]
     in_front = z > 0
@@ -106,12 +149,25 @@ def project(camera: StereoCamera, points: Float[ArrayLike, "*batch 3"]) -> Stere
 
 def triangulate(camera: StereoCamera, left_px: Float[ArrayLike, "*batch 2"],
                 right_px: Float[ArrayLike, "*batch 2"]) -> Triangulation:
-    """Points (..., 3) in the left camera frame from matching pixels (..., 2) of both views.
+    """Points in the left camera frame from matching pixels of both views (LfD 2009 §III-A).
 
-    Depth from the disparity d = x_left - x_right (Z = f b / d), X and Y from the left pixel (the rows
-    of a rectified pair agree; the right row is not used). d <= 0 (behind the cameras or a wrong
-    match), or one so small that the depth overflows, gives `valid` False and xyz 0: never a clamped
-    depth."""
+    Depth from the disparity d = x_left - x_right (Z = f b / d), X and Y from the left pixel (the
+    rows of a rectified pair agree; the right row is not used): Z = f b / d, X = (x - cx) Z / f,
+    Y = (y - cy) Z / f. d <= 0 (behind the cameras or a wrong match), or one so small that the depth
+    overflows, gives `valid` False and xyz 0: never a clamped depth.
+
+    Args:
+        camera: the `StereoCamera`.
+        left_px: (..., 2) pixels (x, y) in the left image.
+        right_px: (..., 2) matching pixels in the right image.
+
+    Returns:
+        A `Triangulation`: xyz (..., 3) and valid (...).
+
+    Raises:
+        ValueError: naming the argument for pixels of a shape other than (..., 2), not finite
+            (concrete input), or of different shapes (`right_px`).
+    """
     left, xp = _namespace("left_px", left_px, 2)
     right, xp_right = _namespace("right_px", right_px, 2)
     if xp_right is jnp:
@@ -129,8 +185,16 @@ def triangulate(camera: StereoCamera, left_px: Float[ArrayLike, "*batch 2"],
 
 
 def camera_matrices(camera: StereoCamera) -> tuple[np.ndarray, np.ndarray]:
-    """The 3 x 4 projection matrices (float64) of the left and right camera, K [I | 0] and K [I | -b e_x],
-    mapping homogeneous left-camera-frame points to homogeneous pixels (OpenCV's `P1`, `P2` convention)."""
+    """The 3 x 4 projection matrices of the left and right camera (OpenCV's `P1`, `P2` convention).
+
+    K [I | 0] and K [I | -b e_x], mapping homogeneous left-camera-frame points to homogeneous pixels.
+
+    Args:
+        camera: the `StereoCamera`.
+
+    Returns:
+        (left, right), float64 (3, 4) arrays.
+    """
     K = np.array([[camera.focal_px, 0.0, camera.cx], [0.0, camera.focal_px, camera.cy], [0.0, 0.0, 1.0]])
     left = K @ np.hstack([np.eye(3), np.zeros((3, 1))])
     right = K @ np.hstack([np.eye(3), np.array([[-camera.baseline_m], [0.0], [0.0]])])

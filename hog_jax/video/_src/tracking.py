@@ -1,8 +1,8 @@
-"""α-β tracking of blob ellipses: hands, face and manipulated objects (level-set report §3.7; LfD 2009
+"""α-β tracking of blob ellipses: hands, face and manipulated objects (LEVELSET TR §3.7; LfD 2009
 §III-A: hand and face masks from the skin mask "using connected components detection or with an
 αβ-filter when hand and face blobs merge").
 
-Each of M targets is an ellipse (centroid, second moments; `hog_jax.blobs` conventions) with a
+Each of M targets is an ellipse (centroid, second moments; `blobs` conventions) with a
 velocity. Per frame (`lax.scan` over a video, `vmap` over videos), given the frame's connected
 components (`connected_blobs`: a label image and padded blob arrays, made before with OpenCV):
 
@@ -19,7 +19,7 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
    blob is where its own pixels as predicted by its ellipse match those seen: a few fixed-point steps
    x <- x + (centroid seen - centroid predicted), so a hand overlapping the face is located by the
    part of it that shows (the centroid of its window would be pulled into the face). Its ellipse is
-   held while merged. The prediction separates hand and face (level-set report §3.7);
+   held while merged. The prediction separates hand and face (LEVELSET TR §3.7);
 4. correct with the residual r = z - x^-: x = x^- + α r, v = v + β r / dt. Without a blob a target
    coasts on x^- (observed False) and after `n_lost` frames it is lost (velocity 0, position frozen).
    In a merged blob with less than `min_evidence` of its ellipse's area in own pixels (a hand in front
@@ -48,6 +48,7 @@ Shapes: B videos, T frames, M targets, K blob slots, H x W pixels.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from functools import partial
 from typing import NamedTuple
@@ -60,7 +61,7 @@ from jaxtyping import Array, Bool, Float, Int
 from hog_jax.video._src.blobs import Blobs, ellipse_from_sums
 from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["INIT_RULES", "TrackState", "Tracks", "alpha_beta_gains", "track"]
+__all__ = ["INIT_RULES", "TrackOptions", "TrackState", "Tracks", "alpha_beta_gains", "track"]
 
 INIT_RULES = ("top", "bottom", "left", "right", "largest", "left_of_first", "right_of_first")
 _SIDE_RULES = INIT_RULES[5:]  # relative to target 0: not target 0's own rule
@@ -69,9 +70,17 @@ _RIM_PX = 2.0  # a sharer's ellipse, grown by this many pixels, explains its blo
 
 
 class TrackState(NamedTuple):
-    """The scan carry of one video: position, velocity (M, 2), cov (M, 2, 2), missed (M,) int32 frames
-    without a blob, hidden (M,) int32 frames concealed in a merged blob, acquired (M,) bool, started ()
-    bool (a frame had >= min_init blobs)."""
+    """The scan carry of the α-β tracker for one video (LEVELSET TR §3.7).
+
+    Attributes:
+        position: (M, 2) px.
+        velocity: (M, 2) px per dt.
+        cov: (M, 2, 2) ellipse second moments.
+        missed: (M,) int32 frames without a blob.
+        hidden: (M,) int32 frames concealed in a merged blob.
+        acquired: (M,) bool.
+        started: () bool, a frame had >= min_init blobs.
+    """
 
     position: Float[Array, "M 2"]
     velocity: Float[Array, "M 2"]
@@ -83,12 +92,22 @@ class TrackState(NamedTuple):
 
 
 class Tracks(NamedTuple):
-    """Per frame and target (leading (T,) or (B, T)): the corrected position (.., M, 2) px, velocity
-    (.., M, 2) px per dt, ellipse cov (.., M, 2, 2), area (.., M) of the pixels measured (0 when not
-    observed), blob (.., M) int32 slot taken (-1 none); bools (.., M): observed (measured this frame,
-    not a prediction), merged (its gated blob was shared with another target: measured by a split of
-    it, or coasting), lost (not tracked: never acquired, or n_lost frames unseen; position then holds
-    the last estimate, or 0 before acquisition)."""
+    """The tracked targets per frame (LEVELSET TR §3.7; LfD 2009 §III-A).
+
+    Leading axes (T,) or (B, T).
+
+    Attributes:
+        position: (.., M, 2) the corrected position, px.
+        velocity: (.., M, 2) px per dt.
+        cov: (.., M, 2, 2) the ellipse.
+        area: (.., M) the pixels measured (0 when not observed).
+        blob: (.., M) int32 the blob slot taken (-1 none).
+        observed: (.., M) bool, measured this frame (not a prediction).
+        merged: (.., M) bool, its gated blob was shared with another target (measured by a split of
+            it, or coasting).
+        lost: (.., M) bool, not tracked: never acquired, or n_lost frames unseen (position then holds
+            the last estimate, or 0 before acquisition).
+    """
 
     position: Float[Array, "*T M 2"]
     velocity: Float[Array, "*T M 2"]
@@ -98,6 +117,63 @@ class Tracks(NamedTuple):
     observed: Bool[Array, "*T M"]
     merged: Bool[Array, "*T M"]
     lost: Bool[Array, "*T M"]
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackOptions:
+    """The α-β tracker's options (`track`; LEVELSET TR §3.7), validated on construction.
+
+    The default gains α = 0.75, β = 0.5 are Kalata's steady-state optimum for the tracking index
+    Λ = 1 (`alpha_beta_gains`; a hand: σ_a ~ 400 px/s² at 25 fps against ~1 px of centroid noise).
+
+    Attributes:
+        alpha: the position gain, 0 < alpha <= 1.
+        beta: the velocity gain, 0 < beta < 4 - 2 alpha (the stability region).
+        dt: the frame period, > 0 (velocity is in px per dt).
+        gate: the association gate in units of the target's own ellipse, > 0: a blob is taken when
+            its nearest pixel lies inside the ellipse (semi-axes 2 sqrt(eig)) scaled by `gate`.
+        n_lost: frames without a blob before a target is lost, >= 1.
+        n_hidden: frames concealed in a merged blob before a target is lost, >= 1.
+        min_init: the blobs a frame needs before the first acquisition, >= 1 and at most the blob
+            slots K (None: M, all targets at once).
+        reacquire: lost targets may take a free blob again.
+        cov_floor: px^2 added to every ellipse for the distances, > 0 (a 1-pixel blob has cov 0).
+        min_evidence: the fraction of its ellipse's area a target needs in own pixels of a merged
+            blob to count as observed, >= 0.
+        merge_damping: the factor on a concealed target's velocity per frame, in [0, 1] (1: pure
+            coasting).
+
+    Raises:
+        ValueError: naming the field for a value out of its range.
+    """
+
+    alpha: float = 0.75
+    beta: float = 0.5
+    dt: float = 1.0
+    gate: float = 2.0
+    n_lost: int = 5
+    n_hidden: int = 50
+    min_init: int | None = None
+    reacquire: bool = True
+    cov_floor: float = 1.0
+    min_evidence: float = 0.1
+    merge_damping: float = 0.5
+
+    def __post_init__(self):
+        alpha = check_real(self.alpha, "alpha", min_value=0.0, max_value=1.0, exclusive_min=True)
+        beta = check_real(self.beta, "beta", min_value=0.0, exclusive_min=True)
+        if beta >= 4.0 - 2.0 * alpha:
+            raise ValueError(f"beta: must be < 4 - 2 alpha = {4.0 - 2.0 * alpha:g} for a stable filter, got {beta}")
+        check_real(self.dt, "dt", min_value=0.0, exclusive_min=True)
+        check_real(self.gate, "gate", min_value=0.0, exclusive_min=True)
+        check_int(self.n_lost, "n_lost", min_value=1)
+        check_int(self.n_hidden, "n_hidden", min_value=1)
+        if self.min_init is not None:
+            check_int(self.min_init, "min_init", min_value=1)
+        check_choice(self.reacquire, "reacquire", (True, False))
+        check_real(self.cov_floor, "cov_floor", min_value=0.0, exclusive_min=True)
+        check_real(self.min_evidence, "min_evidence", min_value=0.0)
+        check_real(self.merge_damping, "merge_damping", min_value=0.0, max_value=1.0)
 
 
 class _Options(NamedTuple):
@@ -116,7 +192,21 @@ class _Options(NamedTuple):
 
 
 def alpha_beta_gains(tracking_index: float) -> tuple[float, float]:
-    """Kalata's (1984) steady-state α, β for the tracking index Λ > 0 (see the module docstring)."""
+    """Kalata's steady-state optimal α-β gains for a tracking index (Kalata 1984, IEEE Trans. AES 20(2)).
+
+    For Λ = σ_a dt^2 / σ_z (acceleration against measurement noise):
+    α = (-Λ² - 8Λ + (Λ + 4) sqrt(Λ² + 8Λ)) / 8, β = (Λ² + 4Λ - Λ sqrt(Λ² + 8Λ)) / 4. Λ = 1 gives the
+    `TrackOptions` defaults α = 0.75, β = 0.5.
+
+    Args:
+        tracking_index: Λ > 0.
+
+    Returns:
+        (alpha, beta).
+
+    Raises:
+        ValueError: `tracking_index` <= 0 or not finite.
+    """
     lam = check_real(tracking_index, "tracking_index", min_value=0.0, exclusive_min=True)
     root = math.sqrt(lam * lam + 8.0 * lam)
     return (-lam * lam - 8.0 * lam + (lam + 4.0) * root) / 8.0, (lam * lam + 4.0 * lam - lam * root) / 4.0
@@ -299,23 +389,34 @@ def _check_blobs(blobs: Blobs) -> tuple[int, ...]:
     return lead
 
 
-def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"), *, alpha: float = 0.75, beta: float = 0.5,
-          dt: float = 1.0, gate: float = 2.0, n_lost: int = 5, n_hidden: int = 50, min_init: int | None = None,
-          reacquire: bool = True, cov_floor: float = 1.0, min_evidence: float = 0.1,
-          merge_damping: float = 0.5) -> Tracks:
-    """Track M = len(init) targets through the blobs of one video (T, ...) or a batch (B, T, ...) ->
-    `Tracks` with the same leading axes (the algorithm: the module docstring).
+def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"),
+          options: TrackOptions = TrackOptions()) -> Tracks:
+    """Track blob ellipses through a video with α-β filters (LEVELSET TR §3.7; LfD 2009 §III-A).
 
-    init: one rule per target (`INIT_RULES`), also the order of acquisition. alpha, beta: the α-β
-    gains, 0 < alpha <= 1, 0 < beta < 4 - 2 alpha (the stability region; `alpha_beta_gains`). dt: the
-    frame period (velocity is in px per dt). gate: the association gate in units of the target's own
-    ellipse. n_lost: frames without a blob before a target is lost; n_hidden: frames concealed in a
-    merged blob before it is lost. min_init: the blobs a frame needs before the first acquisition
-    (default M: all targets at once). reacquire: lost targets may take a free blob again. cov_floor:
-    px^2 added to every ellipse for the distances (a 1-pixel blob has cov 0). min_evidence: the
-    fraction of its ellipse's area a target needs in own pixels of a merged blob to count as observed.
-    merge_damping: the factor on a concealed target's velocity per frame (1: pure coasting).
-    ValueError naming the argument for anything else."""
+    Per frame: predict each target at constant velocity; associate it with the gated blob whose
+    pixel is nearest in the Mahalanobis distance of its own ellipse; measure (a blob shared by
+    several targets is split by their ellipses, after Argyros & Lourakis, ECCV 2004, and a target
+    with too little of it is concealed and coasts); correct by the α-β update; acquire untracked
+    targets from the blobs no target took, by their `init` rule.
+
+    Args:
+        blobs: the connected components of a video (T, ...) or a batch (B, T, ...)
+            (`connected_blobs`).
+        init: one acquisition rule per target (M = len(init), from `INIT_RULES`), also the order of
+            acquisition: "top" the highest centroid, "bottom", "left", "right", "largest";
+            "left_of_first" / "right_of_first" the leftmost / rightmost blob beyond that side of
+            target 0's ellipse (not for target 0). The default makes target 0 the face, 1 the hand
+            left of it in the image (a facing person's right hand) and 2 the other hand.
+        options: the tracker's options (`TrackOptions`).
+
+    Returns:
+        `Tracks` with the leading axes of the blobs, (T, M, ...) or (B, T, M, ...).
+
+    Raises:
+        ValueError: naming the argument for blobs that are not consistent `Blobs`, an empty `init`,
+            an unknown rule, a side rule for target 0, options that are not a `TrackOptions`, or
+            `options.min_init` above the blob slots K.
+    """
     lead = _check_blobs(blobs)
     init = (init,) if isinstance(init, str) else tuple(init)
     if not init:
@@ -323,20 +424,15 @@ def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left_of_first", "right_
     rules = [INIT_RULES.index(check_choice(r, f"init[{i}]", INIT_RULES)) for i, r in enumerate(init)]
     if init[0] in _SIDE_RULES:
         raise ValueError(f"init[0]: {init[0]!r} is relative to target 0 itself; give target 0 one of {INIT_RULES[:5]}")
-    alpha = check_real(alpha, "alpha", min_value=0.0, max_value=1.0, exclusive_min=True)
-    beta = check_real(beta, "beta", min_value=0.0, exclusive_min=True)
-    if beta >= 4.0 - 2.0 * alpha:
-        raise ValueError(f"beta: must be < 4 - 2 alpha = {4.0 - 2.0 * alpha:g} for a stable filter, got {beta}")
+    if not isinstance(options, TrackOptions):
+        raise ValueError(f"options: expected a TrackOptions, got {type(options).__name__}")
+    o = options
     K = int(np.shape(blobs.area)[-1])
     opts = _Options(
-        jnp.float32(alpha), jnp.float32(beta), jnp.float32(check_real(dt, "dt", min_value=0.0, exclusive_min=True)),
-        jnp.float32((2.0 * check_real(gate, "gate", min_value=0.0, exclusive_min=True)) ** 2),
-        jnp.float32(check_real(cov_floor, "cov_floor", min_value=0.0, exclusive_min=True)),
-        jnp.int32(check_int(n_lost, "n_lost", min_value=1)), jnp.int32(check_int(n_hidden, "n_hidden", min_value=1)),
-        jnp.int32(check_int(len(init) if min_init is None else min_init, "min_init", min_value=1, max_value=K)),
-        jnp.asarray(bool(check_choice(reacquire, "reacquire", (True, False)))),
-        jnp.float32(check_real(min_evidence, "min_evidence", min_value=0.0)),
-        jnp.float32(check_real(merge_damping, "merge_damping", min_value=0.0, max_value=1.0)),
+        jnp.float32(o.alpha), jnp.float32(o.beta), jnp.float32(o.dt), jnp.float32((2.0 * o.gate) ** 2),
+        jnp.float32(o.cov_floor), jnp.int32(o.n_lost), jnp.int32(o.n_hidden),
+        jnp.int32(check_int(len(init) if o.min_init is None else o.min_init, "min_init", min_value=1, max_value=K)),
+        jnp.asarray(bool(o.reacquire)), jnp.float32(o.min_evidence), jnp.float32(o.merge_damping),
         jnp.asarray(rules, jnp.int32))
     arrays = (blobs.labels, blobs.area, blobs.centroid, blobs.cov, blobs.valid)
     if len(lead) == 2:

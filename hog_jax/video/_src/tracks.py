@@ -3,7 +3,7 @@
 centroid of the face segment"; with stereo, the same in 3-D): skin blobs of each view -> `track`
 (target 0 the face, 1 the right hand, 2 the other hand) -> the left image's hand - face (2-D) and
 the triangulated hand - face (3-D, left camera frame). Moving objects (at most `n_objects`, one per
-hand, level-set report §3.7) are tracked the same way from the object label; which of them the hand
+hand, LEVELSET TR §3.7) are tracked the same way from the object label; which of them the hand
 holds is not decided here.
 
 Stereo association: the same target id in both views (each view is tracked on its own with the same
@@ -14,6 +14,7 @@ Shapes: B videos (optional), T frames, H x W pixels; results keep the input's le
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 import jax
@@ -23,22 +24,82 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from hog_jax.video._src.blobs import connected_blobs
 from hog_jax.video._src.stereo import StereoCamera, triangulate
-from hog_jax.video._src.tracking import Tracks, track
-from lfd_common import as_array, check_int, check_real
+from hog_jax.video._src.tracking import INIT_RULES, TrackOptions, Tracks, track
+from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFacePositions", "hand_face_positions"]
+__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFaceOptions", "HandFacePositions", "hand_face_positions"]
 
 FACE, HAND, OTHER_HAND = 0, 1, 2  # target ids of the skin tracks
 
 
+@dataclasses.dataclass(frozen=True)
+class HandFaceOptions:
+    """The options of `hand_face_positions` (LfD 2009 §III-A), validated on construction.
+
+    Attributes:
+        init: the skin targets' acquisition rules (`track`, from `INIT_RULES`; at least the face
+            and the hand). The default takes the face as the highest skin blob, the hand as the
+            leftmost blob left of the face's extent and the other hand as the rightmost right of it,
+            so that neither a piece of the other arm, the neck nor the other hand is taken for the
+            hand.
+        n_objects: moving objects tracked from the object label (at most one per hand, LEVELSET TR
+            §3.7), 0 <= n_objects <= max_blobs.
+        max_blobs: connected components kept per frame (the largest), 1..255.
+        min_area: the smallest component kept, pixels, >= 1 (smaller ones are noise).
+        max_row_diff_px: the largest row difference of a target between the views (a rectified
+            pair puts a point on one row), >= 0; None: 5 % of the image height.
+        tracking: the α-β tracker's options for the skin targets (`TrackOptions`); its min_init
+            (default 2: face and hand; 3 where both hands are in view once the person is there, so
+            that a frame showing the face and only the other hand does not start the hand's track
+            on it) is the blobs a frame needs before the first acquisition. The objects use the same
+            options with min_init 1.
+
+    Raises:
+        ValueError: naming the field for a value out of range, an unknown rule, fewer than two
+            skin targets, or tracking options that are not a `TrackOptions`.
+    """
+
+    init: tuple[str, ...] = ("top", "left_of_first", "right_of_first")
+    n_objects: int = 2
+    max_blobs: int = 8
+    min_area: int = 4
+    max_row_diff_px: float | None = None
+    tracking: TrackOptions = TrackOptions(min_init=2)
+
+    def __post_init__(self):
+        init = (self.init,) if isinstance(self.init, str) else tuple(self.init)
+        if len(init) < 2:
+            raise ValueError(f"init: expected the rules of the face, the hand (and more skin targets), got {init!r}")
+        for i, rule in enumerate(init):
+            check_choice(rule, f"init[{i}]", INIT_RULES)
+        object.__setattr__(self, "init", init)
+        check_int(self.max_blobs, "max_blobs", min_value=1, max_value=255)
+        check_int(self.min_area, "min_area", min_value=1)
+        check_int(self.n_objects, "n_objects", min_value=0, max_value=self.max_blobs)
+        if self.max_row_diff_px is not None:
+            check_real(self.max_row_diff_px, "max_row_diff_px", min_value=0.0)
+        if not isinstance(self.tracking, TrackOptions):
+            raise ValueError(f"tracking: expected a TrackOptions, got {type(self.tracking).__name__}")
+
+
 class HandFacePositions(NamedTuple):
-    """xy_left (.., T, 2) px: hand - face centroid in the left image; xyz (.., T, 3) m: triangulated
-    hand - face in the left camera frame; found (.., T): hand and face tracked (observed or coasting,
-    not lost) in the left view; found_3d (.., T): also tracked in the right view, with positive
-    disparities and matching rows; observed (.., T): hand and face both measured in both views this
-    frame (not predictions). Where a flag is False its position is 0. skin_left / skin_right: `Tracks`
-    with M = len(init) (FACE, HAND, OTHER_HAND); objects_left / objects_right: `Tracks` with
-    M = n_objects (None if 0 or the input is boolean)."""
+    """Hand-minus-face positions of a stereo video, with the tracks they come from (LfD 2009 Fig. 1a).
+
+    Leading axes (.., T): (T,) or (B, T) as the input. Where a flag is False its position is 0.
+
+    Attributes:
+        xy_left: (.., T, 2) px, hand - face centroid in the left image.
+        xyz: (.., T, 3) m, the triangulated hand - face in the left camera frame.
+        found: (.., T) hand and face tracked (observed or coasting, not lost) in the left view.
+        found_3d: (.., T) also tracked in the right view, with positive disparities and matching
+            rows.
+        observed: (.., T) hand and face both measured in both views this frame (not predictions).
+        skin_left: the left view's skin `Tracks`, M = len(init) targets (FACE, HAND, OTHER_HAND).
+        skin_right: the right view's skin `Tracks`.
+        objects_left: the left view's object `Tracks`, M = n_objects (None if 0 or the input is
+            boolean).
+        objects_right: the right view's object `Tracks` (None likewise).
+    """
 
     xy_left: Float[Array, "*T 2"]
     xyz: Float[Array, "*T 3"]
@@ -82,26 +143,36 @@ def _combine(camera: StereoCamera, left: Tracks, right: Tracks, max_row_diff: fl
 
 def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"],
                         right: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"], camera: StereoCamera, *,
-                        skin_label: int = 2, object_label: int = 3, n_objects: int = 2,
-                        init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"), max_blobs: int = 8, min_area: int = 4,
-                        max_row_diff_px: float | None = None, alpha: float = 0.75, beta: float = 0.5,
-                        dt: float = 1.0, gate: float = 2.0, n_lost: int = 5, n_hidden: int = 50,
-                        min_init: int = 2) -> HandFacePositions:
-    """Hand-minus-face positions of a stereo video (T, H, W) or a batch (B, T, H, W) -> `HandFacePositions`.
+                        skin_label: int = 2, object_label: int = 3,
+                        options: HandFaceOptions = HandFaceOptions()) -> HandFacePositions:
+    """The hand-minus-face position of a stereo video, in 2-D and 3-D (LfD 2009 §III-A, Fig. 1a).
 
-    left, right: per-frame segmentation labels of each view (integers: the level sets' -1 none,
-    0 background, 1 person, 2 skin, 3 object, or any labelling with `skin_label` and `object_label`),
-    or boolean skin masks (then no object is tracked). camera: the rectified pair (its image size must
-    be H x W). init: the skin targets' acquisition rules (`track`; default: the face the highest skin
-    blob, the hand the leftmost blob left of the face's extent, and the other hand the rightmost right
-    of it, so that neither a piece of the other arm, the neck nor the other hand is taken for the hand),
-    from the first frame with `min_init` skin blobs (2: face and hand; 3 where both hands are in view
-    once the person is there, so that a frame showing the face and only the other hand does not
-    start the hand's track on it). max_blobs,
-    min_area: connected components kept per frame (the largest; smaller ones are noise).
-    max_row_diff_px: the largest row difference of a target between the views (default 5 % of H).
-    alpha, beta, dt, gate, n_lost, n_hidden: the tracker's options (`track`). ValueError naming the
-    argument."""
+    "The 2D position of the centroid of the right hand segment relative to the centroid of the face
+    segment"; with stereo, the same in 3-D. The skin blobs of each view are tracked (`track`: target
+    0 the face, 1 the right hand, 2 the other hand), both views in one batched call with the same
+    `init` rules, and the same target id in both views is one point: the left image's hand - face
+    (2-D) and the triangulated hand - face (3-D, left camera frame). A frame where a target's rows
+    differ between the views by more than `max_row_diff_px` is not found in 3-D. Moving objects are
+    tracked the same way from the object label; which of them the hand holds is not decided here.
+
+    Args:
+        left: (T, H, W) or (B, T, H, W) per-frame segmentation labels of the left view (integers:
+            the level sets' -1 none, 0 background, 1 person, 2 skin, 3 object, or any labelling with
+            `skin_label` and `object_label`), or boolean skin masks (then no object is tracked).
+        right: the right view, of the shape and dtype of `left`.
+        camera: the rectified pair (`StereoCamera`); its image size must be H x W.
+        skin_label: the label of skin pixels.
+        object_label: the label of object pixels.
+        options: blobs, acquisition and tracker options (`HandFaceOptions`).
+
+    Returns:
+        `HandFacePositions` with the input's leading axes.
+
+    Raises:
+        ValueError: naming the argument for a camera that is not a `StereoCamera` or of another
+            image size, labels that are neither integers nor booleans, views of other shapes or
+            dtypes (`right`), or options that are not a `HandFaceOptions`.
+    """
     if not isinstance(camera, StereoCamera):
         raise ValueError(f"camera: expected a hog_jax.video.StereoCamera, got {type(camera).__name__}")
     views = {}
@@ -117,22 +188,20 @@ def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W
     H, W = views["left"].shape[-2:]
     if (camera.height, camera.width) != (H, W):
         raise ValueError(f"camera: its image is {camera.height} x {camera.width}, the frames are {H} x {W}")
-    init = tuple(init)
-    if len(init) < 2:
-        raise ValueError(f"init: expected the rules of the face, the hand (and more skin targets), got {init!r}")
+    if not isinstance(options, HandFaceOptions):
+        raise ValueError(f"options: expected a HandFaceOptions, got {type(options).__name__}")
     skin_label = check_int(skin_label, "skin_label")
     object_label = check_int(object_label, "object_label")
-    n_objects = check_int(n_objects, "n_objects", min_value=0, max_value=max_blobs)
-    row_tol = 0.05 * H if max_row_diff_px is None else check_real(max_row_diff_px, "max_row_diff_px", min_value=0.0)
+    o = options
+    row_tol = 0.05 * H if o.max_row_diff_px is None else float(o.max_row_diff_px)
     batch = views["left"].shape[0] if views["left"].ndim == 4 else 0
     both = np.concatenate([views["left"], views["right"]]) if batch else np.stack([views["left"], views["right"]])
-    options = dict(alpha=alpha, beta=beta, dt=dt, gate=gate, n_lost=n_lost, n_hidden=n_hidden)
-    skin = track(connected_blobs(_masks(both, skin_label), max_blobs, min_area), init, min_init=min_init, **options)
+    skin = track(connected_blobs(_masks(both, skin_label), o.max_blobs, o.min_area), o.init, o.tracking)
     skin_left, skin_right = _views(skin, batch)
     objects_left = objects_right = None
-    if n_objects and both.dtype != bool:
-        objects = track(connected_blobs(both == object_label, max_blobs, min_area), ("largest",) * n_objects,
-                        min_init=1, **options)
+    if o.n_objects and both.dtype != bool:
+        objects = track(connected_blobs(both == object_label, o.max_blobs, o.min_area), ("largest",) * o.n_objects,
+                        dataclasses.replace(o.tracking, min_init=1))
         objects_left, objects_right = _views(objects, batch)
     xy, xyz, found, found_3d, observed = _combine(camera, skin_left, skin_right, row_tol)
     return HandFacePositions(xy, xyz, found, found_3d, observed, skin_left, skin_right, objects_left, objects_right)
