@@ -42,6 +42,13 @@ def _num(digits: int, unit: str = "") -> Callable[..., str]:
     return lambda *values: " / ".join(f"{v:.{digits}f}" for v in values) + (f" {unit}" if unit else "")
 
 
+def _events(matched: float | None, true: float | None, pickup: float | None, putdown: float | None) -> str:
+    if matched is None or true is None:
+        return "–"
+    found = f"{matched:.0f} of {true:.0f} events found"
+    return found if pickup is None or putdown is None else f"{pickup:.1f} / {putdown:.1f} ({found})"
+
+
 def _correct_pct(*errors: float) -> str:
     return " / ".join(f"{100 - v:.1f}" for v in errors) + " %"
 
@@ -57,6 +64,7 @@ class Headline:
     keys: tuple[str, ...]
     show: Callable[..., str]
     preset: str | None = None  # None: the study's preferred run (PRESET_ORDER)
+    partial: bool = False  # `show` takes None for a missing or non-finite value (else the row reads "–")
 
 
 HEADLINES = (
@@ -64,12 +72,13 @@ HEADLINES = (
              ("synthesis_error_cm_inner",), _num(2, "cm")),
     Headline("phmm_tabletop", "PHMM", "position (parameter) error, inner region, 3 × 3", "≈ 2 cm",
              ("param_error_cm_inner",), _num(2, "cm")),
-    Headline("phmm_tabletop", "PHMM", "pointing vs reaching: PHMM 2 × 2 / 3 × 3 / classical HMMs", "94 / 93 / ≈ 85 %",
+    Headline("phmm_tabletop", "PHMM", "pointing vs reaching: PHMM 2 × 2 / 3 × 3 / classical HMMs",
+             "94 / 93 / ≈ 85 %",
              ("classification_rate_phmm_2x2", "classification_rate_phmm_3x3", "classification_rate_hmm"), _pct),
     Headline("real_arm_actions", "PHMM, real", "UE-ADL actions of held-out persons: ED-HMM / hmmlearn / 1-NN DTW",
              "not in the papers", ("accuracy_edhmm", "accuracy_hmmlearn", "accuracy_dtw"), _pct),
-    Headline("grasp_recognition", "GRASP", "grasp class on X / X′ / X″, the paper's method", "61 / 71 / 75 %",
-             ("accuracy_X", "accuracy_Xp", "accuracy_Xpp"), _pct, preset="paper"),
+    Headline("grasp_recognition", "GRASP", "grasp class on X / X′ / X″", "61 / 71 / 75 %",
+             ("accuracy_X", "accuracy_Xp", "accuracy_Xpp"), _pct),
     Headline("grasp_recognition", "GRASP", "grasp class on X / X′ / X″, best preset", "61 / 71 / 75 %",
              ("accuracy_X", "accuracy_Xp", "accuracy_Xpp"), _pct, preset="best"),
     Headline("skin_real", "GRASP, real", "skin IoU on real hand photos: ours / fixed YCrCb rule", "not measured",
@@ -87,8 +96,9 @@ HEADLINES = (
              "no figure", ("iou_hand_skin_only", "iou_hand_levelset_no_tracking", "iou_hand"), _num(3)),
     Headline("video_segmentation", "LEVELSET", "background F1 on the real CDnet highway video: ours / MOG2 / KNN",
              "no figure", ("real_f1_ours", "real_f1_mog2", "real_f1_knn"), _num(3)),
-    Headline("lfd_demonstration", "LFD", "pick-up / put-down error, frames (mean)", "1.2 / 3.4",
-             ("pickup_error_frames", "putdown_error_frames"), _num(1)),
+    Headline("lfd_demonstration", "LFD", "pick-up / put-down error, frames (mean)", "1.2 / 3.4 (all 5 found)",
+             ("events_matched", "events_true", "pickup_error_frames", "putdown_error_frames"), _events,
+             partial=True),
     Headline("imitation", "loop", "action / target / grasp accuracy; task success", "shown live, no figure",
              ("action_accuracy", "target_accuracy", "grasp_accuracy", "task_success_rate"), _num(2)),
 )
@@ -99,7 +109,6 @@ class Run:
     """One run folder and what its files say."""
 
     path: Path
-    relative: str
     kind: str  # "study" or "benchmark"
     experiment: str
     preset: str | None
@@ -138,10 +147,8 @@ def find_runs(roots: Sequence[Path]) -> list[Run]:
             config = _read_json(folder / "config.json") if (folder / "config.json").is_file() else {}
             info = _read_json(folder / "run.json") if (folder / "run.json").is_file() else None
             report = (folder / "report.md").read_text() if (folder / "report.md").is_file() else None
-            relative = folder.relative_to(root).as_posix()
             experiment = str(config.get("experiment") or folder.name)
-            runs.append(Run(folder, relative if relative != "." else folder.name, kind, experiment,
-                            config.get("preset"), metrics, config, info, report))
+            runs.append(Run(folder, kind, experiment, config.get("preset"), metrics, config, info, report))
     return runs
 
 
@@ -156,7 +163,8 @@ def _preset_rank(run: Run) -> int:
 
 def preferred_run(runs: Sequence[Run], study: str, preset: str | None = None) -> Run | None:
     """The run a headline row shows: the latest of `preset`, else of the first preset in PRESET_ORDER."""
-    candidates = [r for r in runs if r.kind == "study" and r.experiment == study and (preset is None or r.preset == preset)]
+    candidates = [r for r in runs if r.kind == "study" and r.experiment == study
+                  and (preset is None or r.preset == preset)]
     if not candidates:
         return None
     best_rank = min(_preset_rank(r) for r in candidates)
@@ -175,9 +183,16 @@ def _number(value: Any) -> float | None:
 
 def headline_value(run: Run, headline: Headline) -> str:
     values = [_number(run.metrics.get(k)) for k in headline.keys]
-    if any(v is None for v in values):
+    if any(v is None for v in values) and not headline.partial:
         return "–"
     return headline.show(*values)
+
+
+def _readable_number(match: re.Match) -> str:
+    text = match.group(0)
+    if not re.search(r"\d{7}", text):
+        return text
+    return f"{int(text):,}" if text.isdigit() else f"{float(text):.3e}"
 
 
 def _short_path(match: re.Match) -> str:
@@ -241,6 +256,12 @@ def provenance(run: Run) -> str:
                       f"- machine: {machine_of(run)}"])
 
 
+# A tracker's reference ("(issue 21)", "of issue 18") means nothing to a reader of the docs.
+_ISSUE = re.compile(r"\s*\((?:see )?issues? \d+(?:, \d+)*(?:, [^)]*)?\)|\s+(?:of|in|from|by) issues? \d+|\bissues? \d+'s\s*")
+# Digits runs of 7 or more read like commit hashes to a reader (and to a check for them): print such
+# numbers in scientific notation (decimals) or with thousands separators (integers), same value.
+_LONG_NUMBER = re.compile(r"(?<![\w.])(\d*\.\d+|\d+)(?![\w.])")
+_LEFTOVER = re.compile(r"/tmp/|\bissue [0-9]+|\b[0-9a-f]{7,40}\b|scratch")
 _IMAGE = re.compile(r"!\[([^\]]*)\]\(([^)\s]+)[^)]*\)")
 _LINK = re.compile(r"(?<!!)\[([^\]]+)\]\((?!https?://|#)([^)\s]+)\)")
 
@@ -256,6 +277,8 @@ def embed_report(report: str) -> str:
         line = _IMAGE.sub(lambda m: f"(figure `{Path(m.group(2)).name}` in the run folder)", line)
         line = _LINK.sub(lambda m: f"{m.group(1)} (`{Path(m.group(2)).name}`)", line)
         line = _ABSOLUTE.sub(_short_path, line) if "/tmp/" in line else line
+        line = _ISSUE.sub("", line)
+        line = _LONG_NUMBER.sub(_readable_number, line)
         lines.append(line)
     body = "\n".join(("    " + l) if l.strip() else "" for l in lines)
     return f'??? note "report.md of this run"\n\n{body}\n'
@@ -296,18 +319,21 @@ def headline_rows(runs: Sequence[Run], with_missing: bool) -> list[list[str]]:
             if with_missing:
                 rows.append([h.paper, h.figure, h.paper_value, "not in these runs", "–"])
             continue
-        rows.append([h.paper, h.figure, h.paper_value, headline_value(run, h), f"`{h.study}` {run.preset or ''}".strip()])
+        where = f"`{h.study}` {run.preset or ''}".strip()
+        rows.append([h.paper, h.figure, h.paper_value, headline_value(run, h), where])
     return rows
 
 
 def _nth(run: Run, runs: Sequence[Run]) -> str:
     """", run 2" for the second of several runs of one experiment and preset (by start time)."""
-    same = sorted((r for r in runs if (r.experiment, r.preset) == (run.experiment, run.preset)), key=lambda r: r.started)
+    same = sorted((r for r in runs if (r.experiment, r.preset) == (run.experiment, run.preset)),
+                  key=lambda r: r.started)
     return f", run {same.index(run) + 1}" if len(same) > 1 else ""
 
 
 def results_page(runs: Sequence[Run]) -> str:
-    studies = sorted((r for r in runs if r.kind == "study"), key=lambda r: (_study_rank(r.experiment), r.preset or "", r.relative))
+    studies = sorted((r for r in runs if r.kind == "study"),
+                     key=lambda r: (_study_rank(r.experiment), r.preset or "", r.started))
     parts = ["# Results", "", GENERATED, "",
              "Our numbers beside the papers'. The papers' recordings are not public: unless a row says "
              "*real*, lfd-jax's figures are on the studies' simulated recordings, so a difference says "
@@ -320,24 +346,24 @@ def results_page(runs: Sequence[Run]) -> str:
     if not studies:
         parts.append("No study runs found.")
     for run in studies:
-        parts += [f"### `{run.experiment}`, {run.preset or 'default'} preset{_nth(run, studies)}", "", provenance(run), ""]
+        title = f"### `{run.experiment}`, {run.preset or 'default'} preset{_nth(run, studies)}"
+        parts += [title, "", provenance(run), ""]
         if run.report:
             parts += [embed_report(run.report), ""]
     return "\n".join(parts).rstrip() + "\n"
 
 
 def _ratios(metrics: dict) -> list[tuple[str, str]]:
-    """The ratio entries of a bench.json (nested keys joined by dots), formatted."""
-    out = []
-    for key, value in _flat(metrics).items():
-        number = _number(value)
-        if "ratio" in key.lower() and number is not None:
-            out.append((key, _fmt(number)))
-    return out
+    """The ratios of a bench.json, formatted: its top-level `ratio*` keys where it has them (the
+    benchmark's summary), else every nested key containing "ratio" (joined by dots)."""
+    top = {k: v for k, v in metrics.items() if str(k).startswith("ratio") and not isinstance(v, dict)}
+    entries = top if top else {k: v for k, v in _flat(metrics).items() if "ratio" in k.lower()}
+    return [(k, _fmt(n)) for k, v in entries.items() if (n := _number(v)) is not None]
 
 
 def benchmarks_page(runs: Sequence[Run]) -> str:
-    benches = sorted((r for r in runs if r.kind == "benchmark"), key=lambda r: (r.experiment, r.preset or "", r.relative))
+    benches = sorted((r for r in runs if r.kind == "benchmark"),
+                     key=lambda r: (r.experiment, r.preset or "", r.started))
     parts = ["# Benchmarks", "", GENERATED, "",
              "Each benchmark times lfd-jax beside an anchor library in one process (warm-up, "
              "`jax.block_until_ready`, the median of repeats; compile time apart) and writes the ratio: "
@@ -385,8 +411,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         parser.error(str(err))
     args.docs.mkdir(parents=True, exist_ok=True)
-    (args.docs / "results.md").write_text(results_page(runs))
-    (args.docs / "benchmarks.md").write_text(benchmarks_page(runs))
+    pages = {"results.md": results_page(runs), "benchmarks.md": benchmarks_page(runs)}
+    for name, text in pages.items():
+        (args.docs / name).write_text(text)
+        for n, line in enumerate(text.splitlines(), 1):
+            if _LEFTOVER.search(line):
+                print(f"warning: {args.docs / name}:{n} still reads like a tracker or a local path: {line.strip()[:90]}")
     if str(args.readme) != "none":
         update_readme(args.readme, readme_table(runs))
     n_studies = sum(r.kind == "study" for r in runs)
