@@ -65,9 +65,11 @@ def test_page_has_no_run_history(page):
 def test_api_pages_name_importable_packages():
     import importlib
 
-    for page in sorted((DOCS / "api").glob("*.md")):
-        for name in re.findall(r"^::: ([\w.]+)", page.read_text(), flags=re.M):
-            importlib.import_module(name)
+    names = [name for page in sorted((DOCS / "api").glob("*.md"))
+             for name in re.findall(r"^::: ([\w.]+)", page.read_text(), flags=re.M)]
+    assert names, "no API page names a package"
+    for name in names:
+        assert importlib.import_module(name).__name__ == name
 
 
 def test_results_pages_come_from_the_runs_files(tmp_path):
