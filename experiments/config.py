@@ -35,12 +35,12 @@ import sys
 import time
 import types
 import typing
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
-from tqdm.auto import tqdm
+from lfd_common import markdown_table, progress  # noqa: F401  (re-exported for the studies)
 
 C = TypeVar("C")
 _TUPLE_SEP = ","
@@ -335,21 +335,3 @@ class RunOutput:
         fig.savefig(target, dpi=dpi, bbox_inches="tight")
         plt.close(fig)
         return target
-
-
-def progress(iterable: Iterable | None = None, desc: str = "", total: int | None = None, **kwargs):
-    """A tqdm progress bar on stderr for long loops (silent when `LFD_NO_PROGRESS` is set)."""
-    import os
-
-    return tqdm(iterable, desc=desc, total=total, disable=bool(os.environ.get("LFD_NO_PROGRESS")),
-                dynamic_ncols=True, **kwargs)
-
-
-def markdown_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
-    """A GitHub-flavoured markdown table; floats are shown with 4 significant digits."""
-    def cell(v: Any) -> str:
-        return f"{v:.4g}" if isinstance(v, float) else str(v)
-
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
-    return "\n".join(lines)

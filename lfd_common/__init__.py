@@ -13,6 +13,7 @@ plumbing, so the little they share lives here:
   `ModelCodec`, `ArraySpec`; named arrays: `save_arrays`, `load_arrays`, `read_file`.
 - Batches sharded over a device mesh (the `mesh=` option of every batch entry point): `batch_mesh`,
   `check_mesh`, `shard`, `unshard`, `map_batch`, `sharded_call`.
+- Progress bars and markdown tables for people: `progress`, `markdown_table`.
 - One content-keyed cache (`cached`, `Cache`) and JAX set-up (`cache_dir`, `enable_compilation_cache`).
 
 Example:
@@ -36,6 +37,7 @@ from lfd_common._src.rotations import (axis_angle_to_matrix, euler_zyx_to_quat, 
                                        quat_to_euler_zyx, quat_to_matrix)
 from lfd_common._src.sharding import (ShardedBatch, batch_mesh, batch_spec, check_mesh, map_batch, pad_rows,
                                       replicate, shard, sharded_call, unshard)
+from lfd_common._src.text import markdown_table, progress
 from lfd_common._src.validate import as_array, check_choice, check_int, check_real
 
 __all__ = [
@@ -45,5 +47,5 @@ __all__ = [
     "float_dtype", "frame_mask", "load_arrays", "load_model", "map_batch", "matrix_to_quat", "model_path", "pad_rows",
     "pad_sequences", "quat_to_euler_zyx", "quat_to_matrix", "read_file", "replicate", "safe_log", "safe_logaddexp", "safe_logsumexp",
     "save_arrays", "save_model", "shard", "sharded_call", "solve_spd", "structure_from_json", "structure_to_json", "unshard",
-    "write_npz",
+    "write_npz", "markdown_table", "progress",
 ]

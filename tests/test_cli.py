@@ -1,4 +1,4 @@
-"""The `lfd-jax` command line, run as a user runs it: `python -m experiments.cli ...` in a
+"""The `lfd-jax` command line, run as a user runs it: `python -m lfd_jax.cli ...` in a
 subprocess. Every subcommand's --help; phmm fit + recognize on small Nexus CSV and TRC files written
 here; grasp on two synthetic photos (one with a skin blob, one without) with a tiny database; video
 on a tiny synthetic clip; bad input ends in one line on stderr and exit status 2."""
@@ -22,7 +22,7 @@ SKIN_BGR, BACKGROUND_BGR = (120, 140, 200), (160, 90, 60)  # a skin tone and a b
 
 def lfd_jax(*args, cwd=ROOT) -> subprocess.CompletedProcess:
     env = {**os.environ, "LFD_NO_PROGRESS": "1"}
-    return subprocess.run([sys.executable, "-m", "experiments.cli", *map(str, args)], cwd=cwd, env=env,
+    return subprocess.run([sys.executable, "-m", "lfd_jax.cli", *map(str, args)], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=300)
 
 

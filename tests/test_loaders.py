@@ -1,4 +1,4 @@
-"""The real-recording loaders of `experiments.data.loaders` and `experiments.data.ue_adl`:
+"""The real-recording loaders of `lfd_jax` and `experiments.data.ue_adl`:
 Nexus CSV, TRC and C3D files written here read back to one `MarkerRecording` in metres with NaN
 gaps; gap filling against numpy.interp, the long-gap error, resampling; images, video and stereo
 pairs into (T, H, W, 3) uint8 RGB; and, when ../shared/data/ue_adl is present, one real file of
@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from experiments.data import loaders as L
+import lfd_jax as L
 from experiments.data import ue_adl
 from tests.mocap_files import write_angles, write_c3d, write_nexus_csv, write_trc
 

@@ -13,9 +13,10 @@ from sklearn.metrics import jaccard_score, precision_score, recall_score
 
 from experiments.skin_real import main, methods
 from experiments.skin_real.data import Photo, missing_data, pad_photos
-from experiments.skin_real.metrics import (best_iou_threshold, confusion_counts, hand_found, per_photo_iou,
-                                           pooled_scores, threshold_counts)
+from experiments.skin_real.metrics import (confusion_counts, hand_found, per_photo_iou, pooled_scores,
+                                           threshold_counts)
 from hog_jax import fit_skin_model, median3, segment, skin_log_ratio
+from lfd_jax import best_iou_threshold
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
 

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from experiments.data.loaders import read_text
+from lfd_jax import read_text
 from lfd_common import check_choice, check_real
 
 __all__ = ["ACTIONS", "ACTION_NAMES", "JointAngles", "KINDS", "SIDES", "Trial", "UE_ADL_DIR", "list_trials",

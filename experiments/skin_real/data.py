@@ -21,7 +21,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-UCI_FILE = "skin_nonskin_uci.tsv"
+from lfd_jax import UCI_FILE
+
 HGR_DIR = "hgr_hands"
 
 
@@ -34,14 +35,6 @@ def missing_data(root: str | Path) -> str | None:
         return None
     return (f"skin_real: real data not found ({', '.join(missing)}); pass --data DIR holding {UCI_FILE} "
             f"and {HGR_DIR}/ (see ../shared/data/README.md)")
-
-
-def load_uci_pixels(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """(rgb (N, 3) float32 in R, G, B order, is_skin (N,) bool) from the UCI file (columns B, G, R, label)."""
-    table = np.loadtxt(path, skiprows=1, dtype=np.int64)
-    if table.ndim != 2 or table.shape[1] != 4 or not np.isin(table[:, 3], (1, 2)).all():
-        raise ValueError(f"{path}: expected lines of B G R label (label 1 or 2), got shape {table.shape}")
-    return table[:, [2, 1, 0]].astype(np.float32), table[:, 3] == 1
 
 
 class Photo(NamedTuple):

@@ -1,4 +1,5 @@
-"""Pixel scores of skin masks against the true masks, the "hand found" test, and the threshold choice.
+"""Pixel scores of skin masks against the true masks, and the "hand found" test (the threshold choice is
+`lfd_jax.best_iou_threshold`).
 
 Pixel scores count only real pixels (`valid`): true positives (skin called skin), false positives
 and false negatives, per photo. Pooled scores sum the counts over the photos first (so large photos
@@ -60,26 +61,6 @@ def hand_found(masks: np.ndarray, truth: np.ndarray, valid: np.ndarray,
     largest = largest_components(np.asarray(masks, bool) & valid)
     iou = per_photo_iou(confusion_counts(largest, truth, valid))
     return iou >= min_iou, iou
-
-
-def best_iou_threshold(log_ratio: np.ndarray, is_skin: np.ndarray) -> tuple[float, float]:
-    """(threshold, IoU): the threshold t of the rule "skin where log_ratio > t" with the largest skin
-    IoU on labelled pixels, exact over every distinct value (the pixels sorted once, counts by cumulative
-    sums). t is the midpoint between the last value called skin and the next lower one (the lowest
-    value - 1 when everything is skin, the highest + 1 when nothing is)."""
-    ratio, is_skin = np.asarray(log_ratio, np.float64).ravel(), np.asarray(is_skin, bool).ravel()
-    if ratio.size == 0 or ratio.size != is_skin.size or not is_skin.any():
-        raise ValueError("log_ratio, is_skin: expected equally many pixels, some of them skin")
-    order = np.argsort(-ratio, kind="stable")
-    ratio, is_skin = ratio[order], is_skin[order]
-    tp = np.concatenate([[0], np.cumsum(is_skin)])  # calling the k highest pixels skin, k = 0..N
-    fp = np.arange(ratio.size + 1) - tp
-    iou = tp / (is_skin.sum() + fp)
-    cut = np.concatenate([[True], ratio[:-1] > ratio[1:], [True]])  # k between two distinct values
-    k = int(np.argmax(np.where(cut, iou, -1.0)))
-    upper = ratio[k - 1] if k > 0 else ratio[0] + 2.0
-    lower = ratio[k] if k < ratio.size else ratio[-1] - 2.0
-    return float(0.5 * (upper + lower)), float(iou[k])
 
 
 def threshold_counts(log_ratio: np.ndarray, is_skin: np.ndarray, thresholds) -> np.ndarray:

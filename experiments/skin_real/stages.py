@@ -1,4 +1,4 @@
-"""The stages of the skin study on real photos and its `main` (issue 23): the skin model fitted on
+"""The stages of the skin study on real photos and its `main`: the skin model fitted on
 UCI pixels with its threshold chosen on held-out UCI pixels, then every HGR photo through ours, the
 YCrCb rule and GrabCut; figures, a per-photo table and one writer."""
 from __future__ import annotations
@@ -7,19 +7,17 @@ import csv
 import time
 from pathlib import Path
 
-import jax
 import numpy as np
 
 from experiments.config import StageResult, flatten_metrics, parse_config, progress
 from experiments.skin_real import plots
 from experiments.skin_real.config import PRESETS, Config
-from experiments.skin_real.data import UCI_FILE, hgr_names, load_photo, load_uci_pixels, missing_data
+from experiments.skin_real.data import hgr_names, load_photo, missing_data
 from experiments.skin_real.evaluate import GRABCUT, METHODS, OURS, Evaluation, evaluate_photos
-from experiments.skin_real.metrics import (best_iou_threshold, curve_scores, per_photo_iou, pooled_scores,
-                                           threshold_counts)
+from experiments.skin_real.metrics import curve_scores, per_photo_iou, pooled_scores, threshold_counts
 from experiments.skin_real.report import report
-from hog_jax import fit_skin_model, skin_log_ratio
 from lfd_common import enable_compilation_cache
+from lfd_jax import UCI_FILE, fit_thresholded_skin, load_uci_pixels
 
 
 def skin_model_stage(cfg: Config):
@@ -30,20 +28,16 @@ def skin_model_stage(cfg: Config):
     pixels have no neighbours), or cfg.threshold when given. The HGR photos are never looked at."""
     t0 = time.perf_counter()
     rgb, is_skin = load_uci_pixels(Path(cfg.data) / UCI_FILE)
-    order = np.random.default_rng(cfg.seed).permutation(len(rgb))
-    n_validation = int(round(cfg.validation_fraction * len(rgb)))
-    held_out, fit = order[:n_validation], order[n_validation:]
-    model = fit_skin_model(jax.random.key(cfg.seed), rgb[fit][is_skin[fit]], rgb[fit][~is_skin[fit]],
-                           n_components=cfg.n_components, n_background=cfg.n_background, n_iter=cfg.n_iter)
-    ratio = np.asarray(skin_log_ratio(model, rgb[held_out]))
-    best, best_iou = best_iou_threshold(ratio, is_skin[held_out])
-    threshold = best if cfg.threshold is None else float(cfg.threshold)
-    at_threshold = pooled_scores(threshold_counts(ratio, is_skin[held_out], [threshold]))
-    at_zero = pooled_scores(threshold_counts(ratio, is_skin[held_out], [0.0]))
-    curve = curve_scores(threshold_counts(ratio, is_skin[held_out], cfg.curve_thresholds))[:2]
+    fitted = fit_thresholded_skin(rgb, is_skin, cfg.seed, cfg.validation_fraction, cfg.n_components,
+                                  cfg.n_background, cfg.n_iter, cfg.threshold)
+    model, threshold, best, best_iou = fitted.model, fitted.threshold, fitted.best_threshold, fitted.best_iou
+    ratio, held_out_skin = fitted.held_out_log_ratio, fitted.held_out_is_skin
+    at_threshold = pooled_scores(threshold_counts(ratio, held_out_skin, [threshold]))
+    at_zero = pooled_scores(threshold_counts(ratio, held_out_skin, [0.0]))
+    curve = curve_scores(threshold_counts(ratio, held_out_skin, cfg.curve_thresholds))[:2]
     metrics = {
         "threshold_ours": threshold, "threshold_source": "uci_validation" if cfg.threshold is None else "given",
-        "threshold_uci_best": best, "uci_fit_pixels": len(fit), "uci_validation_pixels": len(held_out),
+        "threshold_uci_best": best, "uci_fit_pixels": fitted.n_fit, "uci_validation_pixels": len(ratio),
         "uci_validation": {"iou_ours": at_threshold["iou"], "precision_ours": at_threshold["precision"],
                            "recall_ours": at_threshold["recall"], "iou_ours_threshold_0": at_zero["iou"]},
         "uci_best_iou": best_iou, "fit_s": time.perf_counter() - t0,

@@ -8,18 +8,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from experiments.data.video import overlay  # noqa: E402
-from hog_jax.video import FACE, HAND
-
-# our labels (-1 none, 0 background, 1 person, 2 skin, 3 object) in the ground truth's colour code
-# (0 background, 1 person, 2 hand skin, 3 face skin, 4 object)
-_AS_TRUTH = np.array([0, 0, 1, 2, 4], np.uint8)
-
-
-def truth_coded(labels) -> np.ndarray:
-    """Our labels (-1 none, 0 background, 1 person, 2 skin, 3 object) in the ground truth's code, the
-    one `experiments.data.video.overlay` colours (skin as hand skin)."""
-    return _AS_TRUTH[np.asarray(labels) + 1]
+from hog_jax.video import FACE, HAND  # noqa: E402
+from lfd_jax import overlay, truth_coded  # noqa: E402
 
 
 def overlay_frames(rec, seg) -> np.ndarray:

@@ -34,7 +34,8 @@ from experiments.data.video.settings import (ACTIONS, LABELS, OBJECTS, PRESETS, 
 from experiments.data.video.people import actor, persons
 from experiments.data.video.render import (clip_scripts, clips, ellipses, iter_clips, long_scripts,
                                            render_recording, scripts)
-from experiments.data.video.outputs import LABEL_COLOURS, contact_sheet, grey, overlay, write_video
+from experiments.data.video.outputs import contact_sheet
+from lfd_jax import LABEL_COLOURS, grey, overlay, write_video
 
 __all__ = ["ACTIONS", "LABELS", "LABEL_COLOURS", "OBJECTS", "PRESETS", "PRIMITIVES", "Primitive", "Recording",
            "Script", "TRACKED", "UNSEEN", "VideoSet", "VideoSettings", "actor", "check_script", "clip_scripts",

@@ -12,7 +12,8 @@ import time
 import numpy as np
 
 from experiments.config import parse_config, progress
-from experiments.data.video.outputs import contact_sheet, overlay, write_video
+from experiments.data.video.outputs import contact_sheet
+from lfd_jax import overlay, write_video
 from experiments.data.video.render import long_scripts, render_recording
 from experiments.data.video.settings import ACTIONS, OBJECTS, PRESETS, VideoSettings
 

@@ -66,7 +66,7 @@ def _grasp_parser(subparsers) -> None:
     p.add_argument("--skin-model", type=existing_path, default=None, metavar="PATH",
                    help="a skin model saved by hog_jax.save_skin_model (its threshold is used); "
                         "default: fitted from --skin-data")
-    _add_skin_data(p, "the skin model (threshold chosen on held-out UCI pixels, as experiments.skin_real)")
+    _add_skin_data(p, "the skin model (threshold chosen on held-out UCI pixels, as the skin study fits it)")
     p.add_argument("--out", type=Path, default=Path("runs/cli_grasp"), metavar="DIR",
                    help="where the PNGs go (default runs/cli_grasp)")
     p.set_defaults(command="grasp")
@@ -75,7 +75,7 @@ def _grasp_parser(subparsers) -> None:
 def _phmm_parsers(subparsers) -> None:
     phmm = subparsers.add_parser(
         "phmm", help="fit HMMs of movement classes on marker files, and recognise movements with them",
-        description="Marker files in any format experiments.data.loaders.load_markers reads (Vicon Nexus .csv, "
+        description="Marker files in any format lfd_jax.load_markers reads (Vicon Nexus .csv, "
                     ".trc, .c3d; .csv.xz / .trc.xz) -> per file the chosen markers' positions in metres, short "
                     "gaps filled, resampled to a fixed length -> one explicit-duration HMM of phmm_jax per class.")
     actions = phmm.add_subparsers(dest="action", required=True, metavar="{fit,recognize}", parser_class=OneLineParser)
@@ -165,7 +165,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run `lfd-jax` on `argv` (default: the command line); returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
-        module = importlib.import_module(f"experiments.cli.{args.command}")
+        module = importlib.import_module(f"lfd_jax.cli._src.{args.command}")
         return int(module.run(args) or 0)
     except (ValueError, OSError) as err:
         print(f"{PROG}: error: {_one_line(err)}", file=sys.stderr)

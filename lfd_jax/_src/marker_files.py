@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.data.loaders.markers import MarkerRecording, make_recording
+from lfd_jax._src.markers import MarkerRecording, make_recording
 
 __all__ = ["UNIT_TO_METRES", "load_c3d", "load_markers", "load_nexus_csv", "load_trc", "read_text"]
 

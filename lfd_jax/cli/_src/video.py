@@ -4,12 +4,12 @@ one's own recording, as `experiments.video_segmentation` runs it on rendered one
 What it needs: a video file (or a folder of images) whose first frames show the scene, then the
 person coming in: the Stauffer–Grimson background model learns the frames before `--start`, and
 what moves in the last `VideoOptions.person_frames` (10) of them teaches the person's colour model
-(TR §3.4-3.5); and skin pixels (the UCI layout, `experiments.cli.skin`) for the skin GMM. Then
+(TR §3.4-3.5); and skin pixels (the UCI layout, `skin.py`) for the skin GMM. Then
 `fit_video_models` -> `segment_recording` (mono) or `segment_stereo` (with `--right`, a rectified
 pair: also the triangulated hand-minus-face position) -> the skin blobs tracked as face, hand and
 other hand (`hog_jax.video.track`, the acquisition rules of `hog_jax.video.hand_face_positions`).
 
-Writes overlay.mp4 (labels tinted in `experiments.data.video.LABEL_COLOURS`: person orange, skin
+Writes overlay.mp4 (labels tinted in `lfd_jax.LABEL_COLOURS`: person orange, skin
 red, object blue; the tracked face and hand marked), sheet.png (a few overlay frames) and
 tracks.csv (per frame: face and hand centroids in pixels and whether each is tracked).
 """
@@ -24,12 +24,10 @@ import jax
 import numpy as np
 
 import hog_jax
-from experiments.cli.skin import video_skin_gmm
-from experiments.config import markdown_table, progress
-from experiments.data.loaders import load_image_folder, load_stereo_videos, load_video
-from experiments.data.video import LABEL_COLOURS, overlay, write_video
-from experiments.plotting import plt
-from experiments.video_segmentation.plots import truth_coded
+from lfd_jax.cli._src.skin import video_skin_gmm
+from lfd_common import markdown_table, progress
+from lfd_jax import LABEL_COLOURS, load_image_folder, load_stereo_videos, load_video, overlay, truth_coded, write_video
+from lfd_jax.cli._src.plotting import plt
 from hog_jax.video import FACE, HAND
 from lfd_common import check_int, check_real, enable_compilation_cache
 

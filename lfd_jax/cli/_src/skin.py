@@ -1,10 +1,11 @@
 """The skin colour models of `lfd-jax grasp` and `lfd-jax video`, fitted on labelled skin pixels in the
-UCI Skin Segmentation layout (`experiments.skin_real.data`) or read from a file.
+UCI Skin Segmentation layout (`lfd_jax.load_uci_pixels`) or read from a file.
 
 The two pipelines model skin differently, so they take different models: the grasp pipeline's
-`hog_jax.segment` a chroma `SkinModel` (skin and background mixtures and a threshold), fitted as
-`experiments.skin_real` fits it; the video pipeline's region scores a skin GMM over RGB / 255
-(`hog_jax.video.fit_skin`, LEVELSET TR §3.3), which `hog_jax.save_skin_model` cannot store.
+`hog_jax.segment` a chroma `SkinModel` (skin and background mixtures and a threshold), fitted with its
+threshold chosen on held-out pixels (`lfd_jax.fit_thresholded_skin`); the video pipeline's region scores
+a skin GMM over RGB / 255 (`hog_jax.video.fit_skin`, LEVELSET TR §3.3), which `hog_jax.save_skin_model`
+cannot store.
 """
 from __future__ import annotations
 
@@ -14,10 +15,8 @@ import jax
 import jax.numpy as jnp
 
 import hog_jax
-from experiments.skin_real.config import Config as SkinConfig
-from experiments.skin_real.data import UCI_FILE, load_uci_pixels
-from experiments.skin_real.stages import skin_model_stage
 from hog_jax.video import fit_skin
+from lfd_jax import UCI_FILE, fit_thresholded_skin, load_uci_pixels
 
 
 def uci_file(folder: Path) -> Path:
@@ -32,13 +31,12 @@ def uci_file(folder: Path) -> Path:
 def photo_skin_model(skin_model: Path | None, skin_data: Path) -> hog_jax.SkinModel:
     """The chroma skin model of the grasp pipeline: the file `skin_model` (`hog_jax.save_skin_model`),
     else fitted on the UCI pixels of `skin_data` with its threshold chosen on held-out UCI pixels
-    (`experiments.skin_real`'s `skin_model_stage`, IoU 0.785 on the 106 real HGR photos) and stored
-    in the model."""
+    (`lfd_jax.fit_thresholded_skin`) and stored in the model."""
     if skin_model is not None:
         return hog_jax.load_skin_model(skin_model)
-    uci_file(skin_data)
-    model, threshold, _, _ = skin_model_stage(SkinConfig(data=str(skin_data)))
-    return model._replace(threshold=jnp.float32(threshold))
+    rgb, is_skin = load_uci_pixels(uci_file(skin_data))
+    fitted = fit_thresholded_skin(rgb, is_skin)
+    return fitted.model._replace(threshold=jnp.float32(fitted.threshold))
 
 
 def video_skin_gmm(skin_data: Path, seed: int = 0) -> hog_jax.GMM:

@@ -2,7 +2,7 @@
 movement class, fitted on one's own marker files and used to classify others.
 
 A file becomes a feature sequence in four steps, the same at fit and at recognition time:
-`experiments.data.loaders.load_markers` (by suffix: Vicon Nexus .csv, .trc, .c3d; .csv.xz / .trc.xz)
+`lfd_jax.load_markers` (by suffix: Vicon Nexus .csv, .trc, .c3d; .csv.xz / .trc.xz)
 -> the chosen markers (`select_markers`; default every marker seen in all training files) ->
 short gaps filled by linear interpolation (`fill_gaps`, `max_gap_s`; a longer gap is an error
 naming the marker) -> optionally minus one reference marker, frame by frame (`relative_to`) ->
@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 import phmm_jax
-from experiments.config import markdown_table, progress
-from experiments.data.loaders import drop_untracked_markers, fill_gaps, load_markers, resample_frames, select_markers
+from lfd_common import markdown_table, progress
+from lfd_jax import drop_untracked_markers, fill_gaps, load_markers, resample_frames, select_markers
 from lfd_common import check_int, check_real, enable_compilation_cache
 
 MANIFEST = "model.json"

@@ -7,7 +7,7 @@ and the HOG pyramid of every view (B = 4, L = 3). It is stored once as an `.npz`
 (`lfd_common.save_arrays`, kind `DB_KIND`: the views, their HOG features, the grasp classes) and read
 on every later call; the default file is `lfd_common.cache_dir("cli") / grasp_db_<size>.npz`.
 
-A photo: the chroma skin model (`experiments.cli.skin`) -> `hog_jax.segment` (the largest skin
+A photo: the chroma skin model (`skin.py`) -> `hog_jax.segment` (the largest skin
 blob, cropped square) -> HOG -> exact k-nearest-neighbour vote (`hog_jax.predict`, eq. 3) and the
 neighbours' mean orientation (eq. 4). Exact search, not LSH: a few queries against a few thousand
 views take milliseconds, and the study found exact and LSH accuracies equal (36.0 / 35.3 %). The
@@ -24,15 +24,15 @@ import cv2
 import numpy as np
 
 import hog_jax
-from experiments.cli.skin import photo_skin_model
-from experiments.config import markdown_table, progress
+from lfd_jax.cli._src.skin import photo_skin_model
+from lfd_common import markdown_table, progress
 from experiments.grasp_recognition.pieces import hog_features, knn_predict
-from experiments.plotting import plt
+from lfd_jax.cli._src.plotting import plt
 from lfd_common import cache_dir, check_int, enable_compilation_cache, load_arrays, model_path, save_arrays
 from sim.grasping import GRASP_NAMES, check_grasp_class, robot_grasp_for
 from sim.grasping import ViewDatabase, ViewOptions, view_database
 
-DB_KIND = "experiments.cli.GraspDatabase"
+DB_KIND = "lfd_jax.cli.GraspDatabase"
 RENDER_SIZE, CROP_SIZE = 128, 64          # experiments.grasp_recognition.Config's render_size and crop_size
 HOG = hog_jax.HOGConfig(n_bins=4, n_levels=3)
 ROBOT_HANDS = ("barrett", "karlsruhe")

@@ -1,3 +1,0 @@
-from experiments.cli.app import main
-
-raise SystemExit(main())

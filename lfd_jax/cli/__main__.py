@@ -1,0 +1,3 @@
+from lfd_jax.cli._src.app import main
+
+raise SystemExit(main())
