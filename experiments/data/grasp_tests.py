@@ -77,7 +77,7 @@ def _object_direction(grasp: int, shape: HandShape) -> np.ndarray:
 
 
 class Nuisances(NamedTuple):
-    """Which of the test images' differences from the database are switched on (the ladder of issue 20).
+    """Which of the test images' differences from the database are switched on (the ladder of the grasp study).
 
     posture: the reach stage's posture and object distance and the uniform joint noise (off: the grasp's
     exact posture, object grasped); photometric: random lighting, object colour, blur and camera noise

@@ -1,4 +1,4 @@
-"""The modern peer of LfD 2009 §III-B's object segmentation (issue 19), as a practitioner would build
+"""The modern peer of LfD 2009 §III-B's object segmentation, as a practitioner would build
 it today with OpenCV: dense disparity (`StereoSGBM`, semi-global matching) and dense optical flow
 (`DISOpticalFlow`); the object is the pixels of the hand's window that move with the hand (flow
 within `flow_tol` px of the hand's displacement) at the hand's depth (disparity within

@@ -18,7 +18,7 @@ from lfd_common import cache_dir
 def _demo_models(seed: int, reps: int, n_iter: int):
     """2x2 PHMMs of both actions trained on the outer corners (cached on disk by their settings)."""
     folder = cache_dir("phmm_tabletop")
-    # "_v2": the model file format of issue 16 (structure without fit options); older files are not read.
+    # "_v2": the model file format that stores the structure without fit options; older files are not read.
     paths = [folder / f"demo_phmm_{a}_s{seed}_r{reps}_i{n_iter}_v2.npz" for a in tt.ACTIONS]
     train = tt.protocol_data(seed, (2, 2), reps, (2, 2), 1)[0]
     if all(p.exists() for p in paths):

@@ -101,7 +101,7 @@ def final_markers(X, names=("index_tip",)) -> np.ndarray:
 
 def regression_baseline(X_train, target_train, action_train, X_test, action_test,
                         names=("index_tip",)) -> np.ndarray:
-    """The baseline every PHMM position figure is reported beside (issue 21): per action, an ordinary
+    """The baseline every PHMM position figure is reported beside: per action, an ordinary
     least-squares affine map from the final finger position (`final_markers`; other markers with
     `names`) to the table position (x, y), fitted on the training movements. Returns (B_test, 3)
     predicted positions (z: the training targets' table height)."""

@@ -1,5 +1,5 @@
 """`recognize` against the recognition of another revision of this repository (default 7db9abf~1, the
-20-step Adam search that issue 21 measured): time per sequence and how often the returned φ is
+20-step Adam search measured earlier): time per sequence and how often the returned φ is
 within 1 nat of a dense search, on `bench_hmm`'s recognition workload (2 PHMMs of a 2x2 grid, batch
 70) for several seeds.
 
@@ -98,10 +98,10 @@ def main(argv=None) -> dict:
     args.out.mkdir(parents=True, exist_ok=True)
     sides = {"this": ROOT}
     report = {"revision": args.revision, "rounds": args.rounds, "repeats": args.repeats, "seeds": {}}
-    with tempfile.TemporaryDirectory() as scratch:
-        sides["other"] = unpack_revision(args.revision, Path(scratch))
+    with tempfile.TemporaryDirectory() as workdir:
+        sides["other"] = unpack_revision(args.revision, Path(workdir))
         for seed in (int(s) for s in args.seeds.split(",")):
-            workload = Path(scratch) / f"seed{seed}"
+            workload = Path(workdir) / f"seed{seed}"
             dense = export_workload(seed, workload)
             runs = {name: [] for name in sides}
             for _ in range(args.rounds):

@@ -20,14 +20,25 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pg
 
 
 class VideoFrames(NamedTuple):
-    """frames (T, H, W, 3) uint8 RGB; rate_hz the frame rate (None where the source gives none)."""
+    """The frames of one clip.
+
+    Attributes:
+        frames: (T, H, W, 3) uint8 RGB.
+        rate_hz: the frame rate (None where the source gives none).
+    """
 
     frames: np.ndarray
     rate_hz: float | None
 
 
 class StereoFrames(NamedTuple):
-    """left, right (T, H, W, 3) uint8 RGB of the same shape; rate_hz the left video's frame rate."""
+    """The frames of a stereo pair.
+
+    Attributes:
+        left: (T, H, W, 3) uint8 RGB.
+        right: (T, H, W, 3) uint8 RGB, the shape of `left`.
+        rate_hz: the left video's frame rate (None where it states none).
+    """
 
     left: np.ndarray
     right: np.ndarray
@@ -53,9 +64,21 @@ def _max_frames(max_frames: int | None) -> int | None:
 
 
 def load_image_folder(path, max_frames: int | None = None, rate_hz: float | None = None) -> VideoFrames:
-    """The images of folder `path` (suffixes `IMAGE_SUFFIXES`, sorted by file name; at most
-    `max_frames`) as one clip. ValueError naming `path` for a missing folder, a folder without
-    images, an unreadable image, or images of different sizes."""
+    """The images of a folder as one clip, sorted by file name.
+
+    Args:
+        path: the folder; its files with a suffix in `IMAGE_SUFFIXES` are read (16-bit images rounded
+            to 8 bits, grey and RGBA converted to RGB).
+        max_frames: read at most this many images (None: all).
+        rate_hz: the frame rate to record (the folder states none).
+
+    Returns:
+        `VideoFrames`.
+
+    Raises:
+        ValueError: naming `path` for a missing folder, a folder without images, an unreadable image,
+            or images of different sizes; naming `max_frames` for a value below 1.
+    """
     import cv2
 
     root = Path(path)
@@ -78,9 +101,19 @@ def load_image_folder(path, max_frames: int | None = None, rate_hz: float | None
 
 
 def load_video(path, max_frames: int | None = None, name: str = "path") -> VideoFrames:
-    """The frames of a video file (at most `max_frames`) through OpenCV's `VideoCapture`, as RGB,
-    with the container's frame rate (None when it states none). ValueError naming the argument
-    (`name`) for a missing file or one OpenCV cannot decode a frame of."""
+    """The frames of a video file, read by OpenCV's `VideoCapture`, as RGB.
+
+    Args:
+        path: the video file.
+        max_frames: read at most this many frames (None: all).
+        name: the argument's name in error messages.
+
+    Returns:
+        `VideoFrames` with the container's frame rate (None when it states none).
+
+    Raises:
+        ValueError: naming `name` for a missing file or one OpenCV cannot decode a frame of.
+    """
     import cv2
 
     file = Path(path)
@@ -106,8 +139,20 @@ def load_video(path, max_frames: int | None = None, name: str = "path") -> Video
 
 
 def load_stereo_videos(left, right, max_frames: int | None = None) -> StereoFrames:
-    """A stereo pair of video files, frame by frame (`load_video` for each). ValueError naming `right`
-    when its number of frames or frame size differs from the left video's."""
+    """A stereo pair of video files, frame by frame (`load_video` for each).
+
+    Args:
+        left: the left video file.
+        right: the right video file.
+        max_frames: read at most this many frames of each (None: all).
+
+    Returns:
+        `StereoFrames`.
+
+    Raises:
+        ValueError: naming `left` or `right` for a file that cannot be read, and `right` when its
+            number of frames or frame size differs from the left video's.
+    """
     a = load_video(left, max_frames, name="left")
     b = load_video(right, max_frames, name="right")
     if a.frames.shape[1:] != b.frames.shape[1:]:

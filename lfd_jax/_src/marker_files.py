@@ -40,7 +40,17 @@ def _existing(path) -> Path:
 
 
 def read_text(path: Path) -> str:
-    """The text of a file, plain or xz-compressed (`.xz`), a UTF-8 BOM dropped; ValueError naming `path`."""
+    """The text of a file, plain or xz-compressed (`.xz`), a UTF-8 BOM dropped.
+
+    Args:
+        path: the file.
+
+    Returns:
+        Its text.
+
+    Raises:
+        ValueError: naming `path` when it cannot be read as UTF-8 text.
+    """
     try:
         if path.suffix == ".xz":
             with lzma.open(path, "rt", encoding="utf-8-sig") as f:
@@ -70,8 +80,18 @@ def _scale(unit: str, path: Path) -> float:
 
 
 def load_nexus_csv(path) -> MarkerRecording:
-    """The "Trajectories" section of a Vicon Nexus CSV export (module docstring) in metres.
-    ValueError naming `path` for a missing file, no Trajectories section, a bad header or rows."""
+    """The "Trajectories" section of a Vicon Nexus CSV export, in metres.
+
+    Args:
+        path: the `.csv` (or `.csv.xz`) file: a "Trajectories" line, the rate, the marker names
+            ("subject:name"), the X/Y/Z line, the units, then one row per frame (empty cells are gaps).
+
+    Returns:
+        A `MarkerRecording`.
+
+    Raises:
+        ValueError: naming `path` for a missing file, no Trajectories section, a bad header or rows.
+    """
     path = _existing(path)
     lines = read_text(path).splitlines()
     starts = [i for i, line in enumerate(lines) if line.strip().strip(",") == "Trajectories"]
@@ -103,8 +123,19 @@ def load_nexus_csv(path) -> MarkerRecording:
 
 
 def load_trc(path) -> MarkerRecording:
-    """A TRC file (module docstring) in metres. ValueError naming `path` for a missing file or a
-    header that does not state DataRate, NumMarkers and Units, or rows that disagree with it."""
+    """A TRC marker file, in metres.
+
+    Args:
+        path: the `.trc` (or `.trc.xz`) file, tab-separated, its header stating DataRate, NumMarkers
+            and Units.
+
+    Returns:
+        A `MarkerRecording`.
+
+    Raises:
+        ValueError: naming `path` for a missing file, a header without DataRate, NumMarkers and Units,
+            or rows that disagree with it.
+    """
     path = _existing(path)
     lines = read_text(path).splitlines()
     if len(lines) < 6 or not lines[0].startswith("PathFileType"):
@@ -134,8 +165,18 @@ def _import_ezc3d():
 
 
 def load_c3d(path) -> MarkerRecording:
-    """The 3-D points of a C3D file through ezc3d, in metres; negative residuals and NaN are gaps.
-    ImportError saying how to install ezc3d when it is absent; ValueError naming `path` otherwise."""
+    """The 3-D points of a C3D file (read by ezc3d), in metres; negative residuals and NaN are gaps.
+
+    Args:
+        path: the `.c3d` file.
+
+    Returns:
+        A `MarkerRecording`.
+
+    Raises:
+        ImportError: saying how to install ezc3d (the extra `mocap`) when it is absent.
+        ValueError: naming `path` for a missing or unreadable file.
+    """
     path = _existing(path)
     ezc3d = _import_ezc3d()
     try:
@@ -153,8 +194,17 @@ def load_c3d(path) -> MarkerRecording:
 
 
 def load_markers(path) -> MarkerRecording:
-    """Any supported marker file by its suffix: `.csv` (Vicon Nexus), `.trc`, `.c3d`; `.csv.xz` and
-    `.trc.xz` are read through lzma. ValueError naming `path` for another suffix or a missing file."""
+    """Any supported marker file, by its suffix.
+
+    Args:
+        path: a `.csv` (Vicon Nexus), `.trc` or `.c3d` file; `.csv.xz` and `.trc.xz` are read through lzma.
+
+    Returns:
+        A `MarkerRecording`.
+
+    Raises:
+        ValueError: naming `path` for another suffix, a missing file or contents that break the format.
+    """
     path = _existing(path)
     suffixes = [s.lower() for s in path.suffixes]
     kind = suffixes[-2] if suffixes[-1:] == [".xz"] and len(suffixes) > 1 else (suffixes[-1] if suffixes else "")

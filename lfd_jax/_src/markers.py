@@ -17,8 +17,13 @@ from lfd_common import as_array, check_int, check_real
 
 
 class MarkerRecording(NamedTuple):
-    """markers (T, M, 3) float64 in metres, NaN in gaps; names (M,) marker labels (without a Vicon
-    "subject:" prefix); rate_hz the frame rate."""
+    """Marker data in the one in-memory format every marker reader returns.
+
+    Attributes:
+        markers: (T, M, 3) float64 positions in metres, NaN in gaps.
+        names: (M,) marker labels (without a Vicon "subject:" prefix).
+        rate_hz: the frame rate.
+    """
 
     markers: np.ndarray
     names: tuple[str, ...]
@@ -26,8 +31,19 @@ class MarkerRecording(NamedTuple):
 
 
 def make_recording(markers, names: Sequence[str], rate_hz: float) -> MarkerRecording:
-    """A checked `MarkerRecording`: markers (T, M, 3) real (NaN allowed, ±inf not), one unique name per
-    marker, a positive finite rate. ValueError naming the argument otherwise."""
+    """A checked `MarkerRecording`.
+
+    Args:
+        markers: (T, M, 3) real positions in metres (NaN allowed for gaps, ±inf not).
+        names: one unique name per marker.
+        rate_hz: the frame rate, positive and finite.
+
+    Returns:
+        The `MarkerRecording` (markers as float64).
+
+    Raises:
+        ValueError: naming the argument that breaks one of the above.
+    """
     arr = as_array(markers, "markers", shape=(None, None, 3), finite=False)
     if np.isinf(arr).any():
         raise ValueError("markers: contains infinite values (gaps must be NaN)")
@@ -47,7 +63,14 @@ def _check_recording(recording) -> MarkerRecording:
 
 
 def gap_runs(missing: np.ndarray) -> list[tuple[int, int]]:
-    """The runs of True in a 1-D bool array as (first, last) frame indices, inclusive."""
+    """The runs of True in a 1-D bool array.
+
+    Args:
+        missing: (T,) bool, True where a frame is missing.
+
+    Returns:
+        The runs as (first, last) frame indices, inclusive, in order.
+    """
     padded = np.concatenate([[False], np.asarray(missing, bool), [False]])
     edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2])]
@@ -55,13 +78,24 @@ def gap_runs(missing: np.ndarray) -> list[tuple[int, int]]:
 
 def fill_gaps(recording: MarkerRecording, max_gap_s: float = 0.2, *, max_gap_frames: int | None = None
               ) -> MarkerRecording:
-    """Gaps of at most `max_gap_frames` frames (default: `max_gap_s` seconds at the recording's rate,
-    rounded down) filled by linear interpolation in time per marker and coordinate (`numpy.interp`
-    between the last frame before and the first frame after the gap; a gap at the start or the end
-    takes the nearest seen value). A frame is a gap for a marker when any of its coordinates is NaN.
+    """Short gaps filled by linear interpolation in time, per marker and coordinate.
 
-    A longer gap raises ValueError naming the marker and its frames (0-based, inclusive); a marker
-    that is never seen is such a gap (drop it first with `drop_untracked_markers`)."""
+    Interpolation is `numpy.interp` between the last frame before and the first frame after the gap; a
+    gap at the start or the end takes the nearest seen value. A frame is a gap for a marker when any
+    of its coordinates is NaN.
+
+    Args:
+        recording: the `MarkerRecording`.
+        max_gap_s: the longest gap filled, in seconds at the recording's rate (rounded down to frames).
+        max_gap_frames: the longest gap filled, in frames (overrides `max_gap_s`).
+
+    Returns:
+        The recording with its gaps filled.
+
+    Raises:
+        ValueError: naming the marker and its frames (0-based, inclusive) for a longer gap; a marker
+            that is never seen is such a gap (drop it first with `drop_untracked_markers`).
+    """
     recording = _check_recording(recording)
     if max_gap_frames is None:
         max_gap_frames = int(np.floor(check_real(max_gap_s, "max_gap_s", min_value=0.0) * recording.rate_hz))
@@ -82,7 +116,18 @@ def fill_gaps(recording: MarkerRecording, max_gap_s: float = 0.2, *, max_gap_fra
 
 
 def select_markers(recording: MarkerRecording, names: Sequence[str]) -> MarkerRecording:
-    """The markers `names`, in that order. ValueError naming the ones the recording lacks."""
+    """Some of the markers, in a given order.
+
+    Args:
+        recording: the `MarkerRecording`.
+        names: the markers to keep, in the order wanted.
+
+    Returns:
+        The recording with those markers only.
+
+    Raises:
+        ValueError: naming the markers the recording lacks, or for an empty `names`.
+    """
     recording = _check_recording(recording)
     if isinstance(names, str) or not len(names):
         raise ValueError(f"names: expected a non-empty sequence of marker names, got {names!r}")
@@ -94,8 +139,17 @@ def select_markers(recording: MarkerRecording, names: Sequence[str]) -> MarkerRe
 
 
 def drop_untracked_markers(recording: MarkerRecording) -> MarkerRecording:
-    """The recording without the markers that have no seen frame (a calibration landmark of a
-    cluster marker set, say). ValueError when none is left."""
+    """The recording without the markers that have no seen frame (a calibration landmark, say).
+
+    Args:
+        recording: the `MarkerRecording`.
+
+    Returns:
+        The recording with the markers seen at least once.
+
+    Raises:
+        ValueError: when no marker is left.
+    """
     recording = _check_recording(recording)
     seen = ~np.isnan(recording.markers).any(axis=-1).all(axis=0)
     if not seen.any():
@@ -105,8 +159,21 @@ def drop_untracked_markers(recording: MarkerRecording) -> MarkerRecording:
 
 
 def resample_frames(x, n_frames: int, name: str = "x") -> np.ndarray:
-    """(T, ...) -> (n_frames, ...): linear interpolation in time from frame 0 to frame T-1 (the
-    PHMM papers' "sequences normalised to 100 samples"). NaN stays NaN where it is interpolated."""
+    """An array resampled in time by linear interpolation from its first to its last frame.
+
+    The PHMM papers' "sequences normalised to 100 samples" (Herzog et al. 2008, §IV).
+
+    Args:
+        x: (T, ...) values with a leading time axis; NaN stays NaN where it is interpolated.
+        n_frames: the number of frames wanted, at least 2.
+        name: the argument's name in error messages.
+
+    Returns:
+        (n_frames, ...) float array.
+
+    Raises:
+        ValueError: naming `name` for a scalar, or `n_frames` below 2.
+    """
     arr = as_array(x, name, finite=False)
     if arr.ndim < 1:
         raise ValueError(f"{name}: expected an array with a leading time axis, got a scalar")
@@ -120,8 +187,18 @@ def resample_frames(x, n_frames: int, name: str = "x") -> np.ndarray:
 
 
 def resample(recording: MarkerRecording, n_frames: int) -> MarkerRecording:
-    """The recording linearly resampled to `n_frames` frames over the same time span (`resample_frames`);
-    `rate_hz` becomes the rate of the new frames."""
+    """The recording linearly resampled to a number of frames over the same time span.
+
+    Args:
+        recording: the `MarkerRecording`.
+        n_frames: the number of frames wanted, at least 2.
+
+    Returns:
+        The resampled recording (`resample_frames`); `rate_hz` becomes the rate of the new frames.
+
+    Raises:
+        ValueError: naming the argument for a bad recording or `n_frames`.
+    """
     recording = _check_recording(recording)
     markers = resample_frames(recording.markers, n_frames, "recording.markers")
     span_s = (len(recording.markers) - 1) / recording.rate_hz

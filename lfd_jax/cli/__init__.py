@@ -1,4 +1,4 @@
-"""`lfd-jax`, the command line for one's own data (issue 23). Installed as a console script
+"""`lfd-jax`, the command line for one's own data. Installed as a console script
 (`[project.scripts]` in pyproject.toml); `python -m lfd_jax.cli` is the same.
 
     lfd-jax grasp IMAGE... [--db PATH] [--build-db] [--db-size N] [--out DIR]
@@ -7,8 +7,8 @@
     lfd-jax video VIDEO --out DIR [--right VIDEO --focal-px F --baseline-m B] [--start N]
 
 `lfd-jax SUBCOMMAND --help` describes each. The work is done by the libraries and
-`lfd_jax`: `grasp` by `sim.grasp_views` (the rendered database), `hog_jax` (skin segmentation,
-HOG, kNN), `lfd_jax.grasp` and `sim.grasp_objects.robot_grasp_for`;
+`lfd_jax`: `grasp` by `sim.grasping.view_database` (the rendered database), `hog_jax` (skin segmentation,
+HOG, kNN), `lfd_jax.grasp` and `sim.grasping.robot_grasp_for`;
 `phmm` by `lfd_jax`'s marker readers and `phmm_jax`; `video` by `hog_jax.video` and the tracker.
 Bad input ends in one line on stderr (`lfd-jax: error: ...`) and exit status 2.
 """
