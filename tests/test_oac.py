@@ -124,7 +124,7 @@ def test_re_rendered_recording_matches_the_generated_one(tiny):
 
 
 def test_standardise_uses_training_frames_only():
-    from experiments.oac_recognition import standardise
+    from experiments.data.oac_protocol import standardise
 
     X = np.zeros((3, 4, 2))
     X[0, :2] = [[1.0, 2.0], [3.0, 6.0]]

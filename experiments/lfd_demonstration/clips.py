@@ -1,8 +1,8 @@
-"""The pre-segmented OAC clips through the video front end (issue 19): per clip, the pipeline's
-features and the renderer's over its pick-up..put-down frames (`features`), cached; as `OACData` for
-the OAC study's protocol (ECCV 2008 Tables 2-4, LfD 2009 Table I: leave-one-person-out, every CRF of
-the papers, `experiments.oac_recognition.models.evaluate`) and for the CHCRF that labels the long
-recordings (`labelling`)."""
+"""The pre-segmented OAC clips through the video front end: per clip, the pipeline's features and the
+renderer's over its pick-up..put-down frames (`features`), cached; as `OACData` for the OAC protocol
+(ECCV 2008 Tables 2-4, LfD 2009 Table I: leave-one-person-out, every CRF of the papers,
+`experiments.data.oac_protocol.evaluate`) and for the CHCRF that labels the long recordings
+(`labelling`)."""
 from __future__ import annotations
 
 import dataclasses
@@ -13,13 +13,12 @@ import numpy as np
 from experiments.config import progress
 from experiments.data import video
 from experiments.data.oac import OACData
+from experiments.data.oac_protocol import ProtocolOptions, evaluate, with_units
 from experiments.data.video.settings import SOURCE_PACKAGES
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, pipeline_features,
                                                     renderer_features, segment_frames)
-from experiments.oac_recognition import config as oac_config
-from experiments.oac_recognition.models import evaluate
 from lfd_common import Cache
 
 SOURCES = ("pipeline", "renderer")
@@ -40,12 +39,12 @@ _FEATURE_FIELDS = ("seed", "video_preset", "n_persons", "n_skin_persons", "pad_f
 
 
 # The rendering, the features, this module's `clip_features` and the front end of `front` with what it
-# imports (the video study's stages, the peers); the tables', labels', report's and figures' modules stay out.
+# imports (`hog_jax` with its video front end, the peers); the tables', labels', report's and figures' modules
+# stay out.
 CLIP_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + (
     "experiments.lfd_demonstration.clips", "experiments.lfd_demonstration.features",
     "experiments.lfd_demonstration.front", "experiments.lfd_demonstration.config",
-    "experiments.lfd_demonstration.evaluate", "experiments.video_segmentation", "experiments.peers",
-    "experiments.data.cdnet", "experiments.plotting", "hog_jax")
+    "experiments.lfd_demonstration.evaluate", "experiments.peers", "hog_jax")
 _CLIPS = Cache("lfd_clip_features", packages=CLIP_PACKAGES)
 
 
@@ -105,14 +104,14 @@ def clip_stage(cfg: Config, settings, rgb_skin, spec: FeatureSpec) -> ClipSet:
     return ClipSet(data, lost, len(jobs))
 
 
-def crf_config(cfg: Config, n_persons: int) -> oac_config.Config:
-    """The OAC study's CRF protocol with this study's runs and search settings."""
-    return oac_config.Config(seed=cfg.seed, n_persons=n_persons, n_runs=cfg.n_runs, max_iter=cfg.crf_max_iter,
-                             n_hidden=cfg.n_hidden)
+def crf_config(cfg: Config, n_persons: int) -> ProtocolOptions:
+    """The OAC protocol with this study's runs and search settings (the other settings the OAC study's)."""
+    return ProtocolOptions(seed=cfg.seed, n_persons=n_persons, n_runs=cfg.n_runs, max_iter=cfg.crf_max_iter,
+                           n_hidden=cfg.n_hidden)
 
 
 def tables(cfg: Config, clips: ClipSet) -> dict:
-    """Per source: the OAC study's tables (nested {median, max} error %), LfD's Table I as `table1`."""
+    """Per source: the OAC protocol's tables (nested {median, max} error %), LfD's Table I as `table1`."""
     out = {}
     for source, data in clips.data.items():
         t, _ = evaluate(crf_config(cfg, int(data.person.max()) + 1), data)
@@ -130,8 +129,6 @@ def hand_features_found(data: OACData) -> float:
 def table_metrics(by_source: dict, clips: ClipSet) -> dict:
     """The pipeline's tables as `table1_*` .. `table4_*` (error %, median and max over the runs), the
     renderer masks' as `renderer_table*`, and the clips' counts."""
-    from experiments.oac_recognition.stages import with_units
-
     out = {k: v for k, v in with_units(by_source["pipeline"]).items()}
     out["renderer"] = with_units(by_source["renderer"])
     out.update(clips_n=clips.n_clips, clips_hand_lost=clips.hand_lost,

@@ -1,4 +1,4 @@
-"""Config and presets of the learning-from-demonstration study (issue 19)."""
+"""Config and presets of the learning-from-demonstration study."""
 from __future__ import annotations
 
 import dataclasses
@@ -9,7 +9,7 @@ from lfd_common import check_int, check_real
 
 @dataclasses.dataclass(frozen=True)
 class Config:
-    """The long unsegmented recordings through the video front end (issue 18), the object in the hand
+    """The long unsegmented recordings through the video front end, the object in the hand
     from phase differences (LfD 2009 §III-B) beside an OpenCV peer, and pick-up / put-down events
     (§III-D, Fig. 8). Settings at 320 x 240 scale with the image width."""
 

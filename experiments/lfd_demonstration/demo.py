@@ -1,17 +1,17 @@
 """Demo stage "lfd" of `experiments.demo`: one short long recording (two OACs, the quick preset) through
 the video front end, the object in the hand, the pick-up / put-down events, and the CHCRF label and
-Z(x) of each period (trained on the quick preset's clips of the other persons; issue 19)."""
+Z(x) of each period (trained on the quick preset's clips of the other persons)."""
 from __future__ import annotations
 
 import dataclasses
 import time
 
 from experiments.config import StageResult, markdown_table
+from experiments.data import video
 from experiments.lfd_demonstration.clips import clip_stage
 from experiments.lfd_demonstration.config import PRESETS, Config
 from experiments.lfd_demonstration.features import FeatureSpec
 from experiments.lfd_demonstration.stages import object_stage
-from experiments.video_segmentation.stages import skin_stage
 
 
 def demo_stage(cfg) -> StageResult:
@@ -19,7 +19,8 @@ def demo_stage(cfg) -> StageResult:
     start = time.perf_counter()
     lcfg = dataclasses.replace(Config(**PRESETS["quick"]), seed=int(cfg.seed), script_oacs=2)
     settings = lcfg.video_settings()
-    _, rgb_skin, _ = skin_stage(lcfg, settings, range(settings.n_persons - lcfg.n_skin_persons, settings.n_persons))
+    _, rgb_skin, _ = video.fit_skin_models(settings, range(settings.n_persons - lcfg.n_skin_persons, settings.n_persons),
+                                           lcfg.seed)
     clips = clip_stage(lcfg, settings, rgb_skin, FeatureSpec())
     metrics, result = object_stage(lcfg, settings, rgb_skin, clips.data["pipeline"])
     keys = ("object_mask_iou", "object_mask_iou_peer", "events_true", "events_matched", "events_missed",

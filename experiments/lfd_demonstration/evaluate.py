@@ -1,5 +1,5 @@
 """Per-recording evaluation of the object in the hand and of the pick-up / put-down events against
-MuJoCo's ground truth (issue 19): object-mask IoU in the hand's window, and found periods matched to
+MuJoCo's ground truth: object-mask IoU in the hand's window, and found periods matched to
 the true ones.
 
 Ground truth: label >= 4 is the held object, from its pick-up frame to its put-down frame (the last

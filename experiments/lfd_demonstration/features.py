@@ -1,4 +1,4 @@
-"""Per-frame OAC features from what the cameras see (issue 19; LfD 2009 §IV, ECCV 2008 §3, §5): the
+"""Per-frame OAC features from what the cameras see (LfD 2009 §IV, ECCV 2008 §3, §5): the
 hand position relative to the face in 2-D (left image) and 3-D (triangulated), the HOG of the
 segmented hand (B = 4, L = 4 as LfD) and the HOG of the segmented object (one level, square-normalised
 as ECCV §5), in the same layout as the OAC study's `experiments.data.oac.OACData`, so its CRF
@@ -20,7 +20,7 @@ import numpy as np
 import hog_jax
 from experiments.data.oac import OACData, masked_hog
 from experiments.data.video import LABELS, OBJECTS, TRACKED
-from hog_jax.video import HAND
+from hog_jax.video import HAND, held
 from hog_jax.video import SKIN
 from lfd_common import check_int, check_real
 
@@ -71,16 +71,6 @@ def windows(images: np.ndarray, centres: np.ndarray, half: tuple[int, int], fill
     inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
     picked = images[np.arange(T)[:, None, None], np.clip(rows, 0, H - 1), np.clip(cols, 0, W - 1)]
     return np.where(inside, picked, np.asarray(fill, images.dtype))
-
-
-def held(values: np.ndarray, found: np.ndarray) -> np.ndarray:
-    """values (T, D) with each frame where `found` (T,) is False replaced by the last found one (the
-    first found one before it; zeros if none is found), as a tracker reports a lost target."""
-    found = np.asarray(found, bool)
-    if not found.any():
-        return np.zeros_like(values)
-    last = np.maximum.accumulate(np.where(found, np.arange(len(found)), -1))
-    return values[np.where(last >= 0, last, np.argmax(found))]
 
 
 def ellipse_masks(shape: tuple[int, int], centres: np.ndarray, covs: np.ndarray, reach: float) -> np.ndarray:

@@ -1,5 +1,5 @@
 """The video front end of the learning-from-demonstration study on one long recording: segmentation
-and hand tracks (`hog_jax.video.segment_stereo`), then the object in the hand's window per frame from
+and hand tracks (`hog_jax.video.front_end`), then the object in the hand's window per frame from
 phase differences (`hog_jax.video.segment_objects`, LfD 2009 §III-B) beside the OpenCV peer."""
 from __future__ import annotations
 
@@ -11,32 +11,8 @@ from experiments.data import video
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.evaluate import hand_width, truth_windows
 from experiments.peers.object_peer import peer_object_masks
-from experiments.video_segmentation.stages import background_options, camera_of, pad, segmentation_start
-from hog_jax.video import (HAND, PERSON, SKIN, HandFaceOptions, ObjectOptions, TrackOptions, VideoOptions,
-                           fit_video_models, segment_stereo)
-
-
-def front_end(rec, rgb_skin, settings, key, pad_frames: int, coarse_scale: bool = True, min_area: int = 4):
-    """The video front end of issue 18 on one recording: (labels of the left view (T, H, W),
-    `HandFacePositions`, segmentation start). coarse_scale: `VideoOptions.coarse_scale`; min_area: the
-    smallest blob tracked (`hand_face_positions`), pixels."""
-    options = VideoOptions(background=background_options(settings), coarse_scale=coarse_scale)
-    start = segmentation_start(settings)
-    left, right, T = pad(rec, pad_frames)
-    models, _ = fit_video_models(key, rgb_skin, left, start, options)
-    tracking = HandFaceOptions(min_area=min_area, tracking=TrackOptions(min_init=3))
-    seg = segment_stereo(models, left, right, start, camera_of(rec), options, tracking)
-    cut = lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a
-    return cut(seg.left.labels), jax.tree.map(cut, seg.positions), start
-
-
-def hand_tracks(positions, start: int):
-    """(left (T, 2), right (T, 2) hand positions (row, column), tracked (T,) bool): the tracked right
-    hand in both views (before `start` and where either view lost it: not tracked, positions held)."""
-    rows = lambda tracks: np.asarray(tracks.position)[:, HAND, ::-1].astype(np.float64)
-    tracked = ~np.asarray(positions.skin_left.lost)[:, HAND] & ~np.asarray(positions.skin_right.lost)[:, HAND]
-    tracked[:start] = False
-    return rows(positions.skin_left), rows(positions.skin_right), tracked
+from hog_jax.video import (HAND, PERSON, SKIN, BackgroundOptions, HandFaceOptions, ObjectOptions, TrackOptions,
+                           VideoOptions, front_end, stereo_camera_from_matrices)
 
 
 def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bool = True) -> dict | None:
@@ -46,8 +22,12 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bo
     ours); None when the hand is never found (a flagged recording)."""
     scale = cfg.scale(settings)
     half = (round(cfg.half_window * scale),) * 2
-    labels, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + index), cfg.pad_frames)
-    hand_l, hand_r, tracked = hand_tracks(positions, start)
+    start = video.segmentation_start(settings)
+    camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
+    out = front_end(jax.random.key(cfg.seed + index), rgb_skin, rec.left, rec.right, start, camera,
+                    VideoOptions(background=BackgroundOptions.for_fps(settings.fps)),
+                    HandFaceOptions(tracking=TrackOptions(min_init=3)), pad_multiple=cfg.pad_frames)
+    labels, positions, hand_l, hand_r, tracked = out.labels, out.positions, out.hand_left, out.hand_right, out.tracked
     observed = np.asarray(positions.skin_left.observed)[:, HAND] & tracked
     if not observed.any():
         return None

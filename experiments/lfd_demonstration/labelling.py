@@ -1,4 +1,4 @@
-"""Each OAC found in a long recording, classified (issue 19; LfD 2009 §IV eqs. 9-10, §V, Fig. 8): the
+"""Each OAC found in a long recording, classified (LfD 2009 §IV eqs. 9-10, §V, Fig. 8): the
 CHCRF of eq. 9 (an action CRF on the 3-D hand position and hand HOG, an object CRF on the object
 HOG, both pre-segmented (ECCV §4), fused with the co-occurrence rates K(a, o) of the training clips),
 trained on the clips of the persons other than the recording's (as LfD §V: the demonstrator's own
@@ -23,7 +23,7 @@ from experiments.data.oac import N_CLASSES, OACData
 from experiments.data.video import ACTIONS, OBJECTS, UNSEEN
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.features import FrameFeatures, as_oac_data, segment_frames
-from experiments.oac_recognition.models import labels_per_frame, standardise
+from experiments.data.oac_protocol import labels_per_frame, standardise
 
 COOC_SMOOTHING = 0.01  # the OAC study's K(a, o) smoothing
 

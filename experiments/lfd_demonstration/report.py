@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from experiments.config import markdown_table
-from experiments.oac_recognition.config import PAPER_LFD_CORRECT, PAPER_TABLE2, PAPER_TABLE3, PAPER_TABLE4
+from experiments.data.oac_protocol import PAPER_LFD_CORRECT, PAPER_TABLE2, PAPER_TABLE3, PAPER_TABLE4
 
 PAPER = {"pickup_error_frames": 1.2, "putdown_error_frames": 3.4}  # LfD 2009 §V: all 5 actions found
 

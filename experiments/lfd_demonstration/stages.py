@@ -1,4 +1,4 @@
-"""The stages of the learning-from-demonstration study and its `main` (issue 19): skin models from the
+"""The stages of the learning-from-demonstration study and its `main`: skin models from the
 last persons' clips; every long recording through the video front end (`hog_jax.video.segment_stereo`),
 the object in the hand from phase differences (`hog_jax.video.segment_objects`) beside the OpenCV peer,
 and the pick-up / put-down events (`hog_jax.video.periods_in_hand`); figures; one writer."""
@@ -20,7 +20,6 @@ from experiments.lfd_demonstration.features import FeatureSpec, pipeline_feature
 from experiments.lfd_demonstration.labelling import label_metrics, label_periods
 from experiments.lfd_demonstration.evaluate import EventMatch, held_object_motion, iou_by_bin, match_events, pooled_iou
 from experiments.lfd_demonstration.report import report
-from experiments.video_segmentation.stages import skin_stage
 from lfd_common import enable_compilation_cache
 
 def _event_metrics(matches: list, prefix: str) -> dict:
@@ -122,7 +121,7 @@ def main(argv=None) -> dict:
     start_s = time.perf_counter()
     settings = cfg.video_settings()
     skin_persons = range(settings.n_persons - cfg.n_skin_persons, settings.n_persons)
-    _, rgb_skin, skin_metrics = skin_stage(cfg, settings, skin_persons)
+    _, rgb_skin, skin_metrics = video.fit_skin_models(settings, skin_persons, cfg.seed)
     spec = FeatureSpec()
     clip_metrics, clip_set = {}, None
     if cfg.clip_repetitions:

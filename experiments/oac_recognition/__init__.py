@@ -16,21 +16,17 @@ an action CRF on the 2-D hand position only, and a linear SVM on the first frame
 factorial CRF (exact inference in the 3 x 3 product space) on [x^a, x^o] with per-frame action and
 object labels; CHCRF late fusion with the co-occurrence K of the training labels (eq. 8).
 Features are standardised per dimension on each fold's training frames (so the position dimensions
-have the same spread as the HOG dimensions, the papers' rule, §3).
+have the same spread as the HOG dimensions, the papers' rule, §3). The protocol and the models live in
+`experiments.data.oac_protocol`, shared with `experiments.lfd_demonstration`.
 
 Outputs: metrics.json (flat keys, e.g. `table2_actions_crf_conn0_error_pct_median`: the tables
 `table2`, `table3`, `table4`, `table_lfd` of {median, max} error %, flattened; `runtime_s`), report.md (every cell beside the paper's, the
 papers' conclusions checked), trajectories.png (hand position per class, like LfD Fig. 7),
 views.png (rendered hand and object views over one recording per class), errors.png.
 """
-from experiments.oac_recognition.config import (PAPER_LFD_CORRECT, PAPER_TABLE2, PAPER_TABLE3, PAPER_TABLE4, PRESETS,
-                                                TABLE4_CELLS, Config)
+from experiments.oac_recognition.config import PRESETS, Config
 from experiments.oac_recognition.demo import demo_stage
-from experiments.oac_recognition.models import (error_pct, evaluate, feature_sets, fold_scores, fused_predictions,
-                                                run_predictions, standardise, tables)
 from experiments.oac_recognition.report import conclusions
-from experiments.oac_recognition.stages import main, with_units
+from experiments.oac_recognition.stages import main
 
-__all__ = ["PAPER_LFD_CORRECT", "PAPER_TABLE2", "PAPER_TABLE3", "PAPER_TABLE4", "PRESETS", "TABLE4_CELLS", "Config",
-           "conclusions", "demo_stage", "error_pct", "evaluate", "feature_sets", "fold_scores", "fused_predictions",
-           "main", "run_predictions", "standardise", "tables", "with_units"]
+__all__ = ["PRESETS", "Config", "conclusions", "demo_stage", "main"]

@@ -1,24 +1,10 @@
-"""Config, presets and the papers' numbers of the OAC recognition study."""
+"""Config and presets of the OAC recognition study."""
 from __future__ import annotations
 
 import dataclasses
 
 from experiments.data import oac
-
-PAPER_TABLE2 = {
-    "actions": {"crf_conn0": (5.3, 9.3), "crf_conn1": (6.0, 12.7), "crf_conn2": (10.7, 18.7),
-                "hcrf_conn0": (14.7, 21.3), "baseline": (17.3, 20.0)},
-    "objects": {"crf_conn0": (8.0, 8.7), "crf_conn1": (11.3, 13.3), "crf_conn2": (20.7, 28.0),
-                "hcrf_conn0": (24.7, 28.7), "baseline": (8.7, None)},
-}
-PAPER_TABLE3 = {"actions": {"chcrf": (3.3, 4.7), "fcrf": (5.3, 8.0), "separate_crf": (5.3, 9.3)},
-                "objects": {"chcrf": (3.3, 4.7), "fcrf": (6.0, 12.0), "separate_crf": (8.0, 8.7)}}
-PAPER_TABLE4 = {"xa_xo": (3.3, 4.7), "pa_xo": (2.7, 8.0), "xa_x1o": (4.7, 8.7), "pa_x1o": (14.7, 18.0)}
-PAPER_LFD_CORRECT = {"2d": {"shape_and_pos": 95.3, "pos_only": 80.0}, "3d": {"shape_and_pos": 95.3, "pos_only": 85.3}}
-TABLE4_CELLS = {  # cell -> (action classifier, object classifier)
-    "xa_xo": ("crf_conn0", "crf_conn0"), "pa_xo": ("baseline_pos2d", "crf_conn0"),
-    "xa_x1o": ("crf_conn0", "baseline_first_frame"), "pa_x1o": ("baseline_pos2d", "baseline_first_frame"),
-}
+from experiments.data.oac_protocol import ProtocolOptions
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,6 +30,12 @@ class Config:
             raise ValueError("n_repetitions, n_runs, max_iter and n_hidden must be positive")
         if self.l2 < 0 or self.svm_l2 < 0 or self.cooc_smoothing < 0:
             raise ValueError("l2, svm_l2 and cooc_smoothing must be >= 0")
+
+    def protocol(self) -> ProtocolOptions:
+        """The evaluation protocol's settings (`experiments.data.oac_protocol`)."""
+        return ProtocolOptions(seed=self.seed, n_persons=self.n_persons, n_runs=self.n_runs, l2=self.l2,
+                               svm_l2=self.svm_l2, n_hidden=self.n_hidden, max_iter=self.max_iter,
+                               cooc_smoothing=self.cooc_smoothing)
 
     def data_settings(self) -> oac.OACSettings:
         return oac.OACSettings(seed=self.seed, n_persons=self.n_persons, n_repetitions=self.n_repetitions,

@@ -8,7 +8,7 @@ import numpy as np
 import crf_jax
 from experiments.config import StageResult, markdown_table
 from experiments.data import oac
-from experiments.oac_recognition.models import labels_per_frame, feature_sets, standardise
+from experiments.data.oac_protocol import feature_sets, labels_per_frame, standardise
 from experiments.plotting import plt
 
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from experiments.data import oac
-from experiments.oac_recognition.config import PAPER_TABLE2, PAPER_TABLE3, Config
+from experiments.data.oac_protocol import PAPER_TABLE2, PAPER_TABLE3
+from experiments.oac_recognition.config import Config
 from experiments.plotting import plt
 
 

@@ -6,8 +6,9 @@ import numpy as np
 
 from experiments.config import markdown_table
 from experiments.data import oac
-from experiments.oac_recognition.config import (PAPER_LFD_CORRECT, PAPER_TABLE2, PAPER_TABLE3, PAPER_TABLE4,
-                                                TABLE4_CELLS, Config)
+from experiments.data.oac_protocol import (PAPER_LFD_CORRECT, PAPER_TABLE2, PAPER_TABLE3, PAPER_TABLE4,
+                                          TABLE4_CELLS)
+from experiments.oac_recognition.config import Config
 
 
 def _cell(ours: dict, paper) -> tuple[str, str]:

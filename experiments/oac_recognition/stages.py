@@ -7,19 +7,11 @@ import time
 import sim
 from experiments.config import StageResult, parse_config, progress
 from experiments.data import oac
+from experiments.data.oac_protocol import evaluate, with_units
 from experiments.oac_recognition import plots
 from experiments.oac_recognition.config import PRESETS, Config
-from experiments.oac_recognition.models import evaluate
 from experiments.oac_recognition.report import report
 from lfd_common import enable_compilation_cache
-
-
-def with_units(tree: dict) -> dict:
-    """The tables with their unit: every {median, max} cell becomes {"error_pct": cell}, so that the
-    flat keys read e.g. `table2_actions_crf_conn0_error_pct_median`."""
-    if set(tree) <= {"median", "max"}:
-        return {"error_pct": dict(tree)}
-    return {k: with_units(v) for k, v in tree.items()}
 
 
 def data_stage(cfg: Config) -> tuple[oac.OACData, dict]:
@@ -33,7 +25,7 @@ def data_stage(cfg: Config) -> tuple[oac.OACData, dict]:
 def evaluation_stage(cfg: Config, data: oac.OACData) -> tuple[dict, StageResult]:
     """Every jackknife run: the papers' tables (nested {median, max} error % over the runs), and as a
     stage result with their unit, and the figures."""
-    t, _ = evaluate(cfg, data)
+    t, _ = evaluate(cfg.protocol(), data)
     return t, StageResult(with_units(t), {"trajectories.png": plots.plot_trajectories(data),
                                           "views.png": plots.plot_views(cfg), "errors.png": plots.plot_errors(t)})
 

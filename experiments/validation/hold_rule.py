@@ -1,4 +1,4 @@
-"""Validation of the video front end's options on seed-1 clips (issue 18; never the test persons): the full
+"""Validation of the video front end's options on seed-1 clips (never the test persons): the full
 pipeline's hand / face / person / object IoU per clip for `VideoOptions` overrides; skin from persons 1 and 3.
 
     python experiments/validation/hold_rule.py OUT 'p:c,p:c,...' '{"follow_light": true}' [render_only]
@@ -11,9 +11,9 @@ import json, sys, time
 import jax, numpy as np
 import sim, hog_jax
 from experiments.data import video
-from experiments.video_segmentation.stages import camera_of, segmentation_start, background_options, pad
 from experiments.video_segmentation.evaluate import evaluate_clip, TRACKED
-from hog_jax.video import HandFaceOptions, TrackOptions, VideoOptions, fit_skin, fit_video_models, segment_stereo
+from hog_jax.video import (BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, fit_skin, fit_video_models,
+                           pad_frames, segment_stereo, stereo_camera_from_matrices)
 from lfd_common import enable_compilation_cache
 
 out, pairs, over = sys.argv[1], [tuple(map(int, s.split(":"))) for s in sys.argv[2].split(",")], json.loads(sys.argv[3])
@@ -38,14 +38,15 @@ for p in SKIN_PERSONS:
     m = (lab == 2) | (lab == 3)
     skin.append(rec.left[::3][m][rng.random(m.sum()) < 0.05])
 rgb_skin = fit_skin(jax.random.key(1), np.concatenate(skin))
-options = VideoOptions(background=background_options(settings))._replace(**over)
-start = segmentation_start(settings)
+options = VideoOptions(background=BackgroundOptions.for_fps(settings.fps))._replace(**over)
+start = video.segmentation_start(settings)
 res = {}
 for n, (p, c) in enumerate(pairs):
     rec = recs[p, c]
-    left, right, T = pad(rec, 50)
+    left, right, T = pad_frames(rec.left, 50), pad_frames(rec.right, 50), len(rec.left)
+    camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
     models, _ = fit_video_models(jax.random.key(1 + n), rgb_skin, left, start, options)
-    seg = segment_stereo(models, left, right, start, camera_of(rec), options,
+    seg = segment_stereo(models, left, right, start, camera, options,
                          HandFaceOptions(tracking=TrackOptions(min_init=3)))
     seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
     skin_mask = np.asarray(
@@ -53,7 +54,7 @@ for n, (p, c) in enumerate(pairs):
             hog_jax.fit_skin_model(jax.random.key(0), np.concatenate(skin), rec.left[0].reshape(-1, 3)[::50]), rec.left
         ).skin
     )
-    counts = evaluate_clip(rec, skin_mask, seg, start, camera_of(rec))
+    counts = evaluate_clip(rec, skin_mask, seg, start, camera)
     iou = {r: counts.inter[TRACKED, r] / max(counts.union[TRACKED, r], 1) for r in ("hand", "face", "person", "object")}
     res[f"{p}:{c}"] = iou
     np.save(f"{out}_{p}_{c}_labels.npy", np.asarray(seg.left.labels))

@@ -1,4 +1,4 @@
-"""Why background pixels stay "person" to the end of a clip (issue 18), measured on one seed-1 validation
+"""Why background pixels stay "person" to the end of a clip, measured on one seed-1 validation
 clip (never a test person): the default pipeline's left-view labels, the pixels that are truly
 background but labelled person in each of the last 30 frames ("locked"), and at those pixels, over
 the last frames, the share the background model sees move and the mean background-GMM, person-GMM and
@@ -15,8 +15,7 @@ import numpy as np
 
 import sim
 from experiments.data import video
-from experiments.video_segmentation.stages import pad, background_options, segmentation_start
-from hog_jax.video import VideoOptions, fit_skin, fit_video_models, segment_recording
+from hog_jax.video import BackgroundOptions, VideoOptions, fit_skin, fit_video_models, pad_frames, segment_recording
 from hog_jax.video._src.pipeline import colour_log_densities
 from lfd_common import enable_compilation_cache
 
@@ -25,7 +24,7 @@ sim.setup_rendering()
 enable_compilation_cache()
 person, oac = map(int, sys.argv[1].split(":"))
 settings = video.preset("paper", seed=1)
-start = segmentation_start(settings)
+start = video.segmentation_start(settings)
 recs = {(p, c): video.render_recording(settings, s) for p, c, r, s in video.clip_scripts(settings)
         if r == 0 and ((p, c) == (person, oac) or (p in SKIN_PERSONS and c == 0))}
 rng = np.random.default_rng(0)
@@ -34,9 +33,9 @@ for p in SKIN_PERSONS:
     lab = recs[p, 0].left_labels[::3]
     is_skin = (lab == 2) | (lab == 3)
     skin.append(recs[p, 0].left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
-options = VideoOptions(background=background_options(settings))
+options = VideoOptions(background=BackgroundOptions.for_fps(settings.fps))
 rec = recs[person, oac]
-left, _, T = pad(rec, 50)
+left, T = pad_frames(rec.left, 50), len(rec.left)
 models, _ = fit_video_models(jax.random.key(1), fit_skin(jax.random.key(1), np.concatenate(skin)), left, start, options)
 seg = segment_recording(models, left, start, options)
 labels, moving = np.asarray(seg.labels)[:T], np.asarray(seg.foreground)[:T]

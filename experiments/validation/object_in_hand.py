@@ -1,4 +1,4 @@
-"""Validation sweep of the object in the hand on the two seed-1 long recordings (issue 19; never the test
+"""Validation sweep of the object in the hand on the two seed-1 long recordings (never the test
 recordings), the video front end computed once and cached under /tmp/dbg.
 
     python experiments/validation/object_in_hand.py '[{}, {"remove_person": true}, {"threshold": 1.0}, {"motion": 4.0}]'
@@ -12,11 +12,10 @@ import jax, numpy as np
 import sim, hog_jax
 from experiments.data import video
 from experiments.lfd_demonstration.config import Config
-from experiments.lfd_demonstration.front import front_end, hand_tracks
 from experiments.lfd_demonstration.evaluate import hand_width, match_events, pooled_iou, truth_windows
-from experiments.video_segmentation.stages import skin_stage
 from experiments.peers.object_peer import peer_object_masks
-from hog_jax.video import HAND
+from hog_jax.video import (HAND, BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, front_end,
+                           stereo_camera_from_matrices)
 from hog_jax.video import SKIN, PERSON, OBJECT
 from lfd_common import enable_compilation_cache
 
@@ -31,9 +30,13 @@ for i, script in enumerate(scripts):
     path = f"/tmp/dbg/front_{i}.npz"
     rec = video.render_recording(settings, script, progress=None)
     if not os.path.exists(path):
-        _, rgb_skin, _ = skin_stage(cfg, settings, range(8, 10))
-        labels, positions, start = front_end(rec, rgb_skin, settings, jax.random.key(cfg.seed + i), 50)
-        hl, hr, tracked = hand_tracks(positions, start)
+        _, rgb_skin, _ = video.fit_skin_models(settings, range(8, 10), cfg.seed)
+        start = video.segmentation_start(settings)
+        camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
+        out = front_end(jax.random.key(cfg.seed + i), rgb_skin, rec.left, rec.right, start, camera,
+                        VideoOptions(background=BackgroundOptions.for_fps(settings.fps)),
+                        HandFaceOptions(tracking=TrackOptions(min_init=3)), pad_multiple=50)
+        labels, positions, hl, hr, tracked = out.labels, out.positions, out.hand_left, out.hand_right, out.tracked
         obs = np.asarray(positions.skin_left.observed)[:, HAND] & tracked
         np.savez(
             path,

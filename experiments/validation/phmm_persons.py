@@ -1,4 +1,4 @@
-"""Why PHMM recognition of the table position does not beat a linear regression on new persons (issue 21):
+"""Why PHMM recognition of the table position does not beat a linear regression on new persons:
 the simulated table-top protocol with persons held out. PHMMs (3x3, per action) are trained on
 `--train-subjects` simulated persons and tested on the 5x7 raster twice: by the same persons (new
 movements) and by `--test-subjects` other persons. Never the study's test set: seed 1 by default (the

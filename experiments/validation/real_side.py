@@ -1,4 +1,4 @@
-"""The side PHMMs of `experiments.real_arm_actions` beside the regression baseline (issue 21), on real
+"""The side PHMMs of `experiments.real_arm_actions` beside the regression baseline, on real
 UE-ADL recordings with every person held out once, with one fixed explicit-duration setting instead of
 the study's per-fold selection (the study's selection runs all four classifiers; this is the cheap
 check of the parameter side). The covariance floor is chosen per fold on the training persons, as in

@@ -1,4 +1,4 @@
-"""How close `recognize`'s φ comes to the maximum on the PHMM table-top study itself (issue 21): the
+"""How close `recognize`'s φ comes to the maximum on the PHMM table-top study itself: the
 study's data and PHMMs (`experiments.phmm_tabletop`, 2x2 and 3x3 grids, reaching and pointing), its
 test movements with noise σ added as in its recognition stage, and for every sequence and PHMM the
 gap between the log-likelihood at the returned φ and at the best of a dense search (a 21^d lattice

@@ -1,4 +1,4 @@
-"""Video segmentation study (issue 18; LEVELSET TR §3-5, LfD 2009 §III-A).
+"""Video segmentation study (LEVELSET TR §3-5, LfD 2009 §III-A).
 
     python -m experiments.video_segmentation --preset quick|paper --out DIR
 

@@ -1,4 +1,4 @@
-"""Config and presets of the video segmentation study (issue 18)."""
+"""Config and presets of the video segmentation study."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,5 +1,5 @@
 """Demo stage "video" of `experiments.demo`: one rendered stereo clip through the video front end
-(issue 18's quick preset, one clip, no real video)."""
+(the quick preset, one clip, no real video)."""
 from __future__ import annotations
 
 import dataclasses

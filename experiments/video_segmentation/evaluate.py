@@ -1,4 +1,4 @@
-"""Per-recording evaluation of the three segmentations against MuJoCo's ground truth (issue 18):
+"""Per-recording evaluation of the three segmentations against MuJoCo's ground truth:
 (a) the skin model alone, (b) level sets with the background model, (c) (b) plus tracking.
 
 Hand and face from a skin mask without tracking take the tracker's acquisition rule on every frame

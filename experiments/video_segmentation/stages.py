@@ -1,4 +1,4 @@
-"""The stages of the video segmentation study and its `main` (issue 18): skin models from some persons,
+"""The stages of the video segmentation study and its `main`: skin models from some persons,
 every clip of the others through (a) skin alone, (b) level sets with the background model and (c)
 tracking; the background model on the real CDnet video beside OpenCV; figures; one writer."""
 from __future__ import annotations
@@ -6,13 +6,12 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import cv2
 import jax
 import numpy as np
 
 import hog_jax
 import sim
-from experiments.config import StageResult, parse_config, progress
+from experiments.config import StageResult, parse_config
 from experiments.data import video
 from experiments.data.cdnet import load_cdnet
 from experiments.peers.background import f1_stage
@@ -20,92 +19,39 @@ from experiments.video_segmentation import plots
 from experiments.video_segmentation.config import PRESETS, Config
 from experiments.video_segmentation.evaluate import METHODS, SKIN_ONLY, TRACKED, evaluate_clip
 from experiments.video_segmentation.report import report
-from hog_jax.video import HandFaceOptions, TrackOptions, VideoOptions, fit_skin, fit_video_models, segment_stereo
+from hog_jax.video import (BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, fit_video_models, pad_frames,
+                           segment_stereo, stereo_camera_from_matrices)
 from lfd_common import enable_compilation_cache
 
 
-def camera_of(rec) -> hog_jax.video.StereoCamera:
-    """The recording's rectified pair from its camera matrices (world -> pixels): intrinsics and the
-    two camera centres by `cv2.decomposeProjectionMatrix`, the baseline their distance."""
-    K, _, left_centre = cv2.decomposeProjectionMatrix(rec.P_left)[:3]
-    right_centre = cv2.decomposeProjectionMatrix(rec.P_right)[2]
-    K = K / K[2, 2]
-    baseline = np.linalg.norm(left_centre[:3, 0] / left_centre[3, 0] - right_centre[:3, 0] / right_centre[3, 0])
-    H, W = rec.left.shape[1:3]
-    return hog_jax.video.StereoCamera(focal_px=float(K[0, 0]), baseline_m=float(baseline), width=W, height=H,
-                                cx=float(K[0, 2]), cy=float(K[1, 2]))
-
-
-def segmentation_start(settings: video.VideoSettings) -> int:
-    """The first segmented frame: the empty frames, the entry and the settling (TR §3: after the
-    training phase; in a real setup the person would say when)."""
-    return int(round(settings.n_empty + (settings.entry_s + settings.settle_s) * settings.fps))
-
-
-def background_options(settings: video.VideoSettings) -> hog_jax.video.BackgroundOptions:
-    """The TR's learning rate alpha = 0.05 per frame at the paper preset's 25 fps, and the same
-    forgetting time at other frame rates (1 - 0.95^(25 / fps) per frame): at the quick preset's
-    10 fps the lighting drifts 2.5 times as far between frames."""
-    return hog_jax.video.BackgroundOptions(alpha=float(1.0 - (1.0 - 0.05) ** (25.0 / settings.fps)))
-
-
-def selected_clips(settings: video.VideoSettings, where):
-    """(person, class, repetition, Recording) of the clips that `where(person, class, repetition)`
-    accepts, one at a time (the others are neither loaded nor rendered)."""
-    for p, c, r, script in video.clip_scripts(settings):
-        if where(p, c, r):
-            yield p, c, r, video.render_recording(settings, script, progress=progress)
-
-
-def skin_stage(cfg: Config, settings: video.VideoSettings, persons=None):
-    """(a)'s chroma skin model (`hog_jax.fit_skin_model`) and (b)'s RGB skin GMM (`fit_skin`) from the
-    hand and face pixels of the clips of `persons` (default: the first `cfg.n_skin_persons`; left
-    views, subsampled)."""
-    persons = range(cfg.n_skin_persons) if persons is None else persons
-    skin, other = [], []
-    rng = np.random.default_rng(cfg.seed)
-    for _, _, _, rec in selected_clips(settings, lambda p, c, r: p in persons):
-        lab = rec.left_labels[::3]
-        is_skin = (lab == 2) | (lab == 3)
-        skin.append(rec.left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
-        other.append(rec.left[::3][~is_skin][rng.random((~is_skin).sum()) < 0.005])
-    skin, other = np.concatenate(skin), np.concatenate(other)
-    k1, k2 = jax.random.split(jax.random.key(cfg.seed))
-    return hog_jax.fit_skin_model(k1, skin, other), fit_skin(k2, skin), {"skin_pixels": len(skin),
-                                                                          "non_skin_pixels": len(other)}
-
-
-def pad(rec, multiple: int):
-    """The recording with its frames padded to a multiple of `multiple` (the last frame repeated), so
-    that clips of similar length share one compilation; the scans are causal, so frames before the
-    padding are unchanged."""
-    T = rec.left.shape[0]
-    extra = -T % multiple
-    rep = lambda a: np.concatenate([a, np.repeat(a[-1:], extra, axis=0)])
-    return rep(rec.left), rep(rec.right), T
+def skin_stage(cfg: Config, settings: video.VideoSettings):
+    """(a)'s chroma skin model and (b)'s RGB skin GMM from the clips of the first `cfg.n_skin_persons`
+    (`video.fit_skin_models`), and the pixel counts."""
+    return video.fit_skin_models(settings, range(cfg.n_skin_persons), cfg.seed)
 
 
 def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, StageResult, dict]:
     """Every clip of the evaluated persons: the three methods' pooled IoUs and centroid errors."""
     options = VideoOptions(motion_penalty=cfg.motion_penalty, object_margin=cfg.object_margin,
-                           person_frames=cfg.person_frames, background=background_options(settings))
-    start = segmentation_start(settings)
+                           person_frames=cfg.person_frames, background=BackgroundOptions.for_fps(settings.fps))
+    start = video.segmentation_start(settings)
     inter, union, errors, merged, err3d, series = {}, {}, {m: [] for m in METHODS}, [], [], []
     first = None
     n = 0
     def evaluated(person, cls, rep):
         return person >= cfg.n_skin_persons and (not cfg.eval_repetitions or rep < cfg.eval_repetitions)
 
-    for person, cls, rep, rec in selected_clips(settings, evaluated):
+    for person, cls, rep, rec in video.selected_clips(settings, evaluated):
         if cfg.max_clips and n >= cfg.max_clips:
             break
-        left, right, T = pad(rec, cfg.pad_frames)
+        left, right, T = pad_frames(rec.left, cfg.pad_frames), pad_frames(rec.right, cfg.pad_frames), len(rec.left)
+        camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
         models, _ = fit_video_models(jax.random.key(cfg.seed + n), rgb_skin, left, start, options)
-        seg = segment_stereo(models, left, right, start, camera_of(rec), options,
+        seg = segment_stereo(models, left, right, start, camera, options,
                              HandFaceOptions(tracking=TrackOptions(min_init=3)))
         seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
         skin_mask = np.asarray(hog_jax.segment(chroma_skin, rec.left).skin)
-        counts = evaluate_clip(rec, skin_mask, seg, start, camera_of(rec))
+        counts = evaluate_clip(rec, skin_mask, seg, start, camera)
         for key in counts.inter:
             inter[key] = inter.get(key, 0) + counts.inter[key]
             union[key] = union.get(key, 0) + counts.union[key]

@@ -6,6 +6,9 @@ H x W pixels, R regions.
 
 Public API:
 
+* Front end in one call (LfD 2009 §III-A): `front_end` -> `FrontEndResult` (region labels, hand and
+  face, the hand's tracks), `hand_tracks`, `pad_frames`, `stereo_camera_from_matrices`,
+  `BackgroundOptions.for_fps`.
 * Pipeline: `fit_skin`, `fit_video_models` -> `VideoModels`, `segment_recording` ->
   `VideoSegmentation`, `segment_stereo` -> `StereoSegmentation` (`VideoOptions`; labels in
   `REGIONS` order, -1 on boundaries), `region_scores`, `follow_light`.
@@ -17,8 +20,8 @@ Public API:
   `init_level_sets`, `chan_vese_segment`, and the pieces `heaviside`, `dirac`, `curvature`,
   `contour_length`, `signed_distance`.
 * Blobs, tracking, stereo (TR §3.7; LfD §III-A): `connected_blobs`, `mask_ellipse`, `track`
-  (`TrackOptions`, `alpha_beta_gains`), `hand_face_positions` (`HandFaceOptions`), `StereoCamera`,
-  `project`, `triangulate`, `camera_matrices`.
+  (`TrackOptions`, `alpha_beta_gains`), `hand_face_positions` (`HandFaceOptions`), `held`, `StereoCamera`,
+  `project`, `triangulate`, `camera_matrices`, `stereo_camera_from_matrices`.
 * Object in the hand (LfD §III-B, eqs. 1-4): `gradient_phase`, `temporal_log_ratio`,
   `stereo_log_ratio`, `object_masks`, `segment_objects` (`ObjectOptions`).
 * Temporal segmentation (LfD §III-D): `filter_in_hand`, `hold_undecided`, `periods_in_hand`.
@@ -31,6 +34,9 @@ Example:
     camera = hv.StereoCamera(focal_px=300.0, baseline_m=0.12, width=320, height=240)
     seg = hv.segment_stereo(models, left, right, start, camera)     # (T, 240, 320, 3) each
     seg.left.labels, seg.positions.xyz                              # (T, H, W), (T, 3)
+    options = hv.VideoOptions(background=hv.BackgroundOptions.for_fps(10.0))
+    out = hv.front_end(jax.random.key(2), skin, left, right, start, camera, options)
+    out.hand_left[out.tracked]                                      # (n, 2) rows, columns
     ```
 """
 from hog_jax.video._src.background import (BackgroundOptions, BackgroundStructure, check_options, init_background,
@@ -41,6 +47,7 @@ from hog_jax.video._src.blobs import (Blobs, Ellipse, EllipseAxes, connected_blo
 from hog_jax.video._src.colour_models import (BICOptions, BICScores, ColourFit, ColourModels, ColourStructure, bic,
                                               fit_gmm_bic, fit_person_background_models, gmm_n_params,
                                               region_log_likelihoods)
+from hog_jax.video._src.frontend import FrontEndResult, front_end, hand_tracks, pad_frames
 from hog_jax.video._src.events import Periods, filter_in_hand, hold_undecided, periods_in_hand
 from hog_jax.video._src.levelset import evolve, init_level_sets, segment_video
 from hog_jax.video._src.levelset_evolution import LevelSetOptions, LevelSetResult, LevelSetStructure
@@ -55,23 +62,25 @@ from hog_jax.video._src.pipeline import (BACKGROUND, OBJECT, PERSON, REGIONS, SK
                                          fit_video_models, follow_light, region_scores, segment_recording,
                                          segment_stereo)
 from hog_jax.video._src.stereo import (StereoCamera, StereoProjection, Triangulation, camera_matrices,
-                                       project, triangulate)
+                                       project, stereo_camera_from_matrices, triangulate)
 from hog_jax.video._src.tracking import INIT_RULES, TrackOptions, TrackState, Tracks, alpha_beta_gains, track
-from hog_jax.video._src.tracks import FACE, HAND, OTHER_HAND, HandFaceOptions, HandFacePositions, hand_face_positions
+from hog_jax.video._src.tracks import (FACE, HAND, OTHER_HAND, HandFaceOptions, HandFacePositions,
+                                      hand_face_positions, held)
 
 __all__ = [
     "BACKGROUND", "BICOptions", "BICScores", "BackgroundOptions", "BackgroundState", "BackgroundStructure", "Blobs",
-    "ColourFit", "ColourModels", "ColourStructure", "Ellipse", "EllipseAxes", "FACE", "HAND", "HandFaceOptions",
-    "HandFacePositions", "INIT_RULES", "LevelSetOptions", "LevelSetResult", "LevelSetStructure", "LogRatio",
-    "OBJECT", "OTHER_HAND", "ObjectOptions", "ObjectSegmentation", "PERSON", "Periods", "REGIONS", "SKIN",
-    "StereoCamera", "StereoProjection", "StereoSegmentation", "TrackOptions", "TrackState", "Tracks",
+    "ColourFit", "ColourModels", "ColourStructure", "Ellipse", "EllipseAxes", "FACE", "FrontEndResult", "HAND",
+    "HandFaceOptions", "HandFacePositions", "INIT_RULES", "LevelSetOptions", "LevelSetResult", "LevelSetStructure",
+    "LogRatio", "OBJECT", "OTHER_HAND", "ObjectOptions", "ObjectSegmentation", "PERSON", "Periods", "REGIONS",
+    "SKIN", "StereoCamera", "StereoProjection", "StereoSegmentation", "TrackOptions", "TrackState", "Tracks",
     "Triangulation", "VAR_FLOOR", "VideoModels", "VideoOptions", "VideoSegmentation", "alpha_beta_gains", "bic",
     "camera_matrices", "chan_vese_scores", "chan_vese_segment", "check_options", "connected_blobs",
-    "contour_length", "crop_phase", "curvature", "dirac", "ellipse_axes", "evolve", "filter_in_hand",
-    "fit_gmm_bic", "fit_person_background_models", "fit_skin", "fit_video_models", "follow_light",
-    "gaussian_kernel", "gmm_n_params", "gradient_phase", "hand_face_positions", "heaviside", "hold_undecided",
-    "init_background", "init_level_sets", "log_density", "mask_ellipse", "object_masks", "periods_in_hand",
-    "project", "region_log_likelihoods", "region_scores", "run_background", "run_background_batch",
-    "segment_objects", "segment_recording", "segment_stereo", "segment_video", "signed_distance",
-    "stereo_log_ratio", "temporal_log_ratio", "track", "triangulate", "update", "weighted_moments",
+    "contour_length", "crop_phase", "curvature", "dirac", "ellipse_axes", "evolve", "filter_in_hand", "fit_gmm_bic",
+    "fit_person_background_models", "fit_skin", "fit_video_models", "follow_light", "front_end", "gaussian_kernel",
+    "gmm_n_params", "gradient_phase", "hand_face_positions", "hand_tracks", "heaviside", "held", "hold_undecided",
+    "init_background", "init_level_sets", "log_density", "mask_ellipse", "object_masks", "pad_frames",
+    "periods_in_hand", "project", "region_log_likelihoods", "region_scores", "run_background",
+    "run_background_batch", "segment_objects", "segment_recording", "segment_stereo", "segment_video",
+    "signed_distance", "stereo_camera_from_matrices", "stereo_log_ratio", "temporal_log_ratio", "track",
+    "triangulate", "update", "weighted_moments",
 ]

@@ -27,6 +27,8 @@ each recording cached (np.savez_compressed) under `lfd_common.cache_dir("video")
 setting, its script and the generator's source. `PRESETS` "quick" (2 persons x 3 x 1 at 160 x 120,
 10 fps) and "paper". Pictures: `contact_sheet`, `overlay`, `write_video`, `grey`;
 `python -m experiments.data.video --preset quick --out DIR` renders one long recording and writes both.
+The front end's training on them: `segmentation_start` (the end of a recording's training phase),
+`fit_skin_models` (skin models from the clips of some persons), `selected_clips`.
 """
 from experiments.data.video.settings import (ACTIONS, LABELS, OBJECTS, PRESETS, PRIMITIVES, TRACKED, UNSEEN,
                                              Primitive, Recording, Script, VideoSet, VideoSettings, check_script,
@@ -35,9 +37,10 @@ from experiments.data.video.people import actor, persons
 from experiments.data.video.render import (clip_scripts, clips, ellipses, iter_clips, long_scripts,
                                            render_recording, scripts)
 from experiments.data.video.outputs import contact_sheet
+from experiments.data.video.training import fit_skin_models, segmentation_start, selected_clips
 from lfd_jax import LABEL_COLOURS, grey, overlay, write_video
 
 __all__ = ["ACTIONS", "LABELS", "LABEL_COLOURS", "OBJECTS", "PRESETS", "PRIMITIVES", "Primitive", "Recording",
            "Script", "TRACKED", "UNSEEN", "VideoSet", "VideoSettings", "actor", "check_script", "clip_scripts",
-           "clips", "contact_sheet", "ellipses", "grey", "iter_clips", "long_scripts", "overlay", "persons", "preset",
-           "render_recording", "scripts", "write_video"]
+           "clips", "contact_sheet", "ellipses", "fit_skin_models", "grey", "iter_clips", "long_scripts", "overlay",
+           "persons", "preset", "render_recording", "scripts", "segmentation_start", "selected_clips", "write_video"]

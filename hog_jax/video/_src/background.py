@@ -133,6 +133,32 @@ class BackgroundOptions(NamedTuple):
     background_ratio: float = 0.7
     decision: str = "stauffer_grimson"
 
+    @classmethod
+    def for_fps(cls, fps: float, alpha: float = 0.05, reference_fps: float = 25.0) -> BackgroundOptions:
+        """The options whose learning rate forgets as fast per second at `fps` as `alpha` does at `reference_fps`.
+
+        The TR's learning rate alpha = 0.05 per frame (LEVELSET TR §3.5, eq. 10) holds at 25 fps; at
+        another frame rate the same forgetting time asks for 1 - (1 - alpha)^(reference_fps / fps) per
+        frame (at 10 fps the lighting drifts 2.5 times as far between frames). The other options keep
+        their defaults.
+
+        Args:
+            fps: the video's frame rate, frames per second, > 0.
+            alpha: the learning rate at `reference_fps`, in (0, 1].
+            reference_fps: the frame rate at which `alpha` holds, > 0.
+
+        Returns:
+            `BackgroundOptions` with the scaled `alpha`.
+
+        Raises:
+            ValueError: naming the argument for a non-positive or non-finite frame rate, or an
+                `alpha` outside (0, 1].
+        """
+        fps = check_real(fps, "fps", min_value=0.0, exclusive_min=True)
+        alpha = check_real(alpha, "alpha", min_value=0.0, max_value=1.0, exclusive_min=True)
+        reference_fps = check_real(reference_fps, "reference_fps", min_value=0.0, exclusive_min=True)
+        return cls(alpha=float(1.0 - (1.0 - alpha) ** (reference_fps / fps)))
+
 
 def check_options(options: BackgroundOptions) -> KernelOptions:
     """Validate `BackgroundOptions` and return their traced form.

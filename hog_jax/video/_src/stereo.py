@@ -23,14 +23,16 @@ import dataclasses
 import math
 from typing import NamedTuple
 
+import cv2
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Bool, Float
+from jaxtyping import Array, ArrayLike, Bool, Float, Real
 
 from lfd_common import as_array, check_int, check_real
 
-__all__ = ["StereoCamera", "StereoProjection", "Triangulation", "camera_matrices", "project", "triangulate"]
+__all__ = ["StereoCamera", "StereoProjection", "Triangulation", "camera_matrices", "project",
+           "stereo_camera_from_matrices", "triangulate"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -199,3 +201,53 @@ def camera_matrices(camera: StereoCamera) -> tuple[np.ndarray, np.ndarray]:
     left = K @ np.hstack([np.eye(3), np.zeros((3, 1))])
     right = K @ np.hstack([np.eye(3), np.array([[-camera.baseline_m], [0.0], [0.0]])])
     return left, right
+
+
+def stereo_camera_from_matrices(P_left: Real[ArrayLike, "3 4"], P_right: Real[ArrayLike, "3 4"], height: int,
+                                width: int) -> StereoCamera:
+    """The rectified pair of two 3 x 4 camera matrices (world -> pixels), the inverse of `camera_matrices`.
+
+    The intrinsics come from the left matrix and the two camera centres from both
+    (`cv2.decomposeProjectionMatrix`, K normalised to K[2, 2] = 1); the baseline is the centres'
+    distance. The pair is taken to be rectified (the same intrinsics and orientation, the right camera
+    along the left one's +x, as `StereoCamera` assumes); that is checked to 1e-6 relative.
+
+    Args:
+        P_left: (3, 4) the left camera's matrix, pixel centres at integer coordinates.
+        P_right: (3, 4) the right camera's matrix.
+        height: the image height H, pixels, >= 1.
+        width: the image width W, pixels, >= 1.
+
+    Returns:
+        The `StereoCamera` (focal length, baseline, principal point and image size).
+
+    Raises:
+        ValueError: naming the argument for a matrix that is not a finite (3, 4) array or has no finite
+            camera centre, a right matrix whose camera is not the left one moved along its x axis, or
+            a size < 1.
+    """
+    P_left = as_array(P_left, "P_left", shape=(3, 4))
+    P_right = as_array(P_right, "P_right", shape=(3, 4))
+    height = check_int(height, "height", min_value=1)
+    width = check_int(width, "width", min_value=1)
+    for name, P in (("P_left", P_left), ("P_right", P_right)):
+        if abs(np.linalg.det(P[:, :3])) <= 1e-12 * max(np.abs(P[:, :3]).max(), 1e-300) ** 3:
+            raise ValueError(f"{name}: its left 3 x 3 block is singular (no finite camera centre)")
+    K, _, left_centre = cv2.decomposeProjectionMatrix(P_left)[:3]
+    right_centre = cv2.decomposeProjectionMatrix(P_right)[2]
+    baseline = np.linalg.norm(left_centre[:3, 0] / left_centre[3, 0] - right_centre[:3, 0] / right_centre[3, 0])
+    _check_rectified(P_left, P_right, K, float(baseline))
+    K = K / K[2, 2]
+    return StereoCamera(focal_px=float(K[0, 0]), baseline_m=float(baseline), width=width, height=height,
+                        cx=float(K[0, 2]), cy=float(K[1, 2]))
+
+
+def _check_rectified(P_left: np.ndarray, P_right: np.ndarray, K: np.ndarray, baseline: float) -> None:
+    """Raise unless P_right (up to scale) is P_left = K [R | t] moved by `baseline` along the left camera's
+    x axis: K [R | t - b e_x]."""
+    expected = P_left.copy()
+    expected[:, 3] -= baseline * K[:, 0]
+    scale = np.sum(P_right * expected) / np.sum(expected * expected)
+    if not np.allclose(P_right / scale, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max()):
+        raise ValueError("P_right: expected the left camera moved along its x axis (a rectified pair), got another "
+                         "camera")

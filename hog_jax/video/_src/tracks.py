@@ -27,7 +27,7 @@ from hog_jax.video._src.stereo import StereoCamera, triangulate
 from hog_jax.video._src.tracking import INIT_RULES, TrackOptions, Tracks, track
 from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFaceOptions", "HandFacePositions", "hand_face_positions"]
+__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFaceOptions", "HandFacePositions", "hand_face_positions", "held"]
 
 FACE, HAND, OTHER_HAND = 0, 1, 2  # target ids of the skin tracks
 
@@ -205,3 +205,21 @@ def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W
         objects_left, objects_right = _views(objects, batch)
     xy, xyz, found, found_3d, observed = _combine(camera, skin_left, skin_right, row_tol)
     return HandFacePositions(xy, xyz, found, found_3d, observed, skin_left, skin_right, objects_left, objects_right)
+
+
+def held(values: np.ndarray, found: np.ndarray) -> np.ndarray:
+    """Hold a lost target at its last found position, as a tracker reports it (LfD 2009 §III-A).
+
+    Args:
+        values: (T, D) per-frame positions (or any per-frame values).
+        found: (T,) bool, whether each frame's value was measured.
+
+    Returns:
+        (T, D) `values` with each frame where `found` is False replaced by the last found one before
+        it (by the first found one where none precedes it); zeros where no frame is found.
+    """
+    found = np.asarray(found, bool)
+    if not found.any():
+        return np.zeros_like(values)
+    last = np.maximum.accumulate(np.where(found, np.arange(len(found)), -1))
+    return values[np.where(last >= 0, last, np.argmax(found))]

@@ -25,7 +25,8 @@ import numpy as np
 
 import phmm_jax
 from lfd_common import markdown_table, progress
-from lfd_jax import drop_untracked_markers, fill_gaps, load_markers, resample_frames, select_markers
+from lfd_jax._src.marker_files import load_markers
+from lfd_jax._src.markers import drop_untracked_markers, fill_gaps, resample_frames, select_markers
 from lfd_common import check_int, check_real, enable_compilation_cache
 
 MANIFEST = "model.json"

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 
 import hog_jax
 from hog_jax.video import fit_skin
-from lfd_jax import UCI_FILE, fit_thresholded_skin, load_uci_pixels
+from lfd_jax._src.skin import UCI_FILE, fit_thresholded_skin, load_uci_pixels
 
 
 def uci_file(folder: Path) -> Path:

@@ -26,7 +26,8 @@ import numpy as np
 import hog_jax
 from lfd_jax.cli._src.skin import video_skin_gmm
 from lfd_common import markdown_table, progress
-from lfd_jax import LABEL_COLOURS, load_image_folder, load_stereo_videos, load_video, overlay, truth_coded, write_video
+from lfd_jax._src.frames import load_image_folder, load_stereo_videos, load_video
+from lfd_jax._src.pictures import LABEL_COLOURS, overlay, truth_coded, write_video
 from lfd_jax.cli._src.plotting import plt
 from hog_jax.video import FACE, HAND
 from lfd_common import check_int, check_real, enable_compilation_cache
