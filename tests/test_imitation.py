@@ -14,6 +14,7 @@ from experiments.imitation import Config, Demo, PRESETS
 from experiments.imitation import pipeline as pl
 from experiments.imitation import stages as st
 from experiments.imitation.demonstrations import check_demo, draw_demos
+from lfd_jax import imitation as im
 
 CFG = Config(**PRESETS["quick"])
 # the quick preset's validation choices (`stages.validation_stage`, seed 1000): offset, sigma, threshold
@@ -32,9 +33,9 @@ def loop():
     phmms = st.phmm_models(CFG, settings)
     rec = st.render_demo(settings, DEMO)
     tracked = pl.track(CFG, settings, DEMO, rec, rgb_skin)
-    online = pl.recognizer(phmms, SIGMA_M, THRESHOLD_M, CFG.online_window)
-    return rec, tracked, pl.recognise_demo(online, tracked, OFFSET_M, CFG.median_frames, DEMO.objects_xy,
-                                           CFG.handover_xy), phmms
+    online = im.recognizer(phmms, SIGMA_M, THRESHOLD_M, CFG.online_window)
+    return rec, tracked, im.recognise_demo(online, tracked, OFFSET_M, CFG.median_frames, DEMO.objects_xy,
+                                           CFG.handover_xy, area=pl.AREA), phmms
 
 
 def test_scripted_pointing_demonstration(loop):
@@ -51,13 +52,14 @@ def test_robot_fetches_the_recognised_object(loop):
     spec = st.task_spec(CFG, DEMO, r)  # the script's object, its stand-in's grasp, to the hand-over spot
     assert spec.target == DEMO.target and spec.grasp == spec.objects[DEMO.target]
     assert np.allclose(spec.object_xy, DEMO.objects_xy) and np.allclose(spec.place_xy, CFG.handover_xy)
-    reach = pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target])  # the approach's shape
+    reach = im.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target], area=pl.AREA)  # the approach's shape
     assert reach.ndim == 2 and reach.shape[1] == 3 and len(reach) >= 10 and np.isfinite(reach).all()
     c = phmms[pl.REACH].config  # the reach PHMM's own mean movement gives its target back (PHMM eq. 3)
-    xy = pl.reach_target(phmms[pl.REACH], pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target],
-                                                                max(c.min_length, c.max_length // 3)))
+    xy = im.reach_target(phmms[pl.REACH], im.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target],
+                                                                max(c.min_length, c.max_length // 3), pl.AREA),
+                         pl.AREA)
     assert xy is not None and np.linalg.norm(xy - spec.object_xy[spec.target]) < 0.05
-    assert pl.reach_target(phmms[pl.REACH], reach[:1]) is None  # shorter than any path: flagged
+    assert im.reach_target(phmms[pl.REACH], reach[:1]) is None  # shorter than any path: flagged
     res = st.robot_task(CFG, DEMO, r, phmms)
     # this demonstration is one the robot completes: any failed stage (named in the message) fails the test
     assert res.success and res.failed_stage == "", res.failed_stage
@@ -74,7 +76,7 @@ def test_bad_input_names_the_argument():
     with pytest.raises(ValueError, match="demo.objects_xy"):
         check_demo(DEMO._replace(objects_xy=np.zeros((2, 2))), settings)
     with pytest.raises(ValueError, match="P_left"):
-        pl.camera_rotation(np.zeros((3, 3)))
+        im.camera_rotation(np.zeros((3, 3)))
     with pytest.raises(ValueError, match="n_demos"):
         Config(n_demos=0)
     with pytest.raises(ValueError, match="median_s"):

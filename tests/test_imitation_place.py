@@ -1,11 +1,11 @@
-"""A transfer's place read from the object's own displacement in the video (`experiments.imitation.place`),
+"""A transfer's place read from the object's own displacement in the video (`lfd_jax.imitation.place_reader`),
 on a synthetic scene with a known camera: a box moved on a table, the lights 25 % brighter afterwards,
 and a change of the person's posture beside it."""
 import cv2
 import numpy as np
 import pytest
 
-from experiments.imitation.place import moved_object, pixel_ray, place_reader, project, scene_place
+from lfd_jax.imitation import moved_object, pixel_ray, place_reader, project, scene_place
 
 TABLE_Z = 0.75
 BOX = np.array([0.06, 0.06, 0.12])  # x, y, z extent (m) of the moved object
@@ -88,7 +88,7 @@ def test_reader_takes_the_rest_frames_around_the_movement():
     before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), n=10)
     moving = np.repeat(after[:1] // 2, 20, axis=0)  # anything while the person moves
     frames = np.concatenate([before, moving, after])
-    read = place_reader(frames, P, fps=10.0, first_frame=0, margin=2, rest_s=0.5, height=0.05)
+    read = place_reader(frames, P, fps=10.0, first_frame=0, margin=2, rest_s=0.5, height=0.05, table_z=TABLE_Z)
     objects = np.array([STILL_XY, (-0.2, -0.45)])
     res = read(12, 29, objects, 1)
     assert res.found and np.linalg.norm(res.xy - np.array([0.05, -0.30])) < 0.015
@@ -122,23 +122,23 @@ def test_moved_object_decides_only_when_one_position_changed():
 
 
 def test_the_video_overrules_the_phmms_action_where_it_shows_an_object_moved_or_none(monkeypatch):
-    from experiments.imitation import pipeline as pl
-    from experiments.imitation.place import ScenePlace
+    from lfd_jax.imitation._src import recognition  # `movement` is replaced where `recognise_demo` finds it
+    from lfd_jax.imitation import ScenePlace
 
     n = 40
     arc = np.sin(np.pi * np.linspace(0.0, 1.0, n))
-    tracked = pl.Tracked(np.stack([0.3 * arc, -0.4 + 0.1 * arc, -0.3 + 0.0 * arc], 1), np.ones(n, bool),
-                         np.zeros((n, 2)), 0)
+    tracked = recognition.Tracked(np.stack([0.3 * arc, -0.4 + 0.1 * arc, -0.3 + 0.0 * arc], 1), np.ones(n, bool),
+                                  np.zeros((n, 2)), 0)
     objects = np.array([[0.0, -0.4], [0.2, -0.45], [-0.2, -0.5]])
     handover, new_place = np.array([-0.1, -0.3]), np.array([0.1, -0.3])
 
     def recognise(moved: int, kind: str = "point", still: bool = False):
-        monkeypatch.setattr(pl, "movement", lambda *_: (kind, objects[0] + 0.01, 5, 30))   # the PHMMs' answer
+        monkeypatch.setattr(recognition, "movement", lambda *_: (kind, objects[0] + 0.01, 5, 30))   # the PHMMs' answer
 
         def scene(start, end, objects_xy, target):
             assert (start, end) == (5, 30)
             return ScenePlace(moved, new_place if moved >= 0 else np.full(2, np.nan), moved >= 0, "", still)
-        return pl.recognise_demo(None, tracked, np.zeros(3), 3, objects, handover, scene=scene)
+        return recognition.recognise_demo(None, tracked, np.zeros(3), 3, objects, handover, scene=scene)
 
     r = recognise(1)                                              # the video: object 1 moved to new_place
     assert (r.kind, r.kind_phmm, r.target, r.target_phmm, r.place_from) == ("transfer", "point", 1, 0, "scene")

@@ -1,4 +1,4 @@
-"""The imitation loop (issue 21, "The loop"): from a demonstration video to what the robot must do.
+"""The imitation loop: from a demonstration video to what the robot must do.
 
     python -m experiments.imitation --preset quick|paper --out DIR
 
@@ -7,16 +7,18 @@ points at one (the robot must fetch it to a hand-over spot in front of the perso
 one of the six grasps of GRASP §II and puts it at a new place (the robot repeats the transfer);
 rendered by `experiments.data.video` (LfD 2009 §III-A, §V), random persons, objects' places, grasps.
 
-Per demonstration (`stages.run_demo`, `pipeline`):
+Per demonstration (`stages.run_demo`, `pipeline`, the steps of `lfd_jax.imitation`):
 1. video -> the stereo video front end (LEVELSET TR §3, LfD 2009 §III-C: level sets, α-β tracks of
    both views, the triangulated hand relative to the face);
 2. the online PHMM recogniser (BMVC 2008 §5.4: a streaming forward state per class, movement start
    and end detected, class and parameter after a latency of `online_window_s`; Humanoids 2008
    §III): point or pick-and-place, and the target on the table, snapped to the nearest object; a
-   movement called a pointing is a pick-and-place where the video shows an object moved (`place`);
+   movement called a pointing is a pick-and-place where the video shows an object moved
+   (`lfd_jax.imitation.place_reader`);
 3. the grasp moment and the put-down from the hand's speed along the movement; the place = where the
    object stood plus its own displacement between the scene at rest before and after the movement
-   (`place`), or, where the video does not show it, plus the hand's displacement between them;
+   (`lfd_jax.imitation.scene_place`), or, where the video does not show it, plus the hand's
+   displacement between them;
 4. the grasp class from the hand image at the grasp moment (`grasp_stage`; GRASP §III, eq. 3: HOG, kNN
    over hand crops of demonstrations of their own seed, or over the grasp study's rendered database,
    which also gives the hand's orientation, eq. 4);

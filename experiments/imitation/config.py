@@ -1,4 +1,4 @@
-"""Config and presets of the imitation loop (issue 21, "The loop")."""
+"""Config and presets of the imitation loop."""
 from __future__ import annotations
 
 import dataclasses
@@ -22,10 +22,10 @@ class Config:
     n_validation: int = 6                # validation demonstrations (own seed): feature offset, noise, threshold
     pad_frames: int = 25                 # recordings padded to a multiple of this (one compilation per length)
     # the level sets' coarse scale (TR §5; from 240 x 320 up) loses the hand held out from the body: off,
-    # chosen on validation demonstrations (README, issue 21: the 3-D hand found in the reach and carry)
+    # chosen on validation demonstrations (the 3-D hand found in the reach and carry)
     coarse_scale: bool = False
     # the smallest skin blob tracked, in pixels of a 160 x 120 frame (scaled with the frame's area): at
-    # 320 x 240 a 5-pixel speck on the head was the highest skin blob and became the "face" (README, issue 21)
+    # 320 x 240 a 5-pixel speck on the head was the highest skin blob and became the "face"
     min_blob_px_160: int = 4
     handover_xy: tuple[float, ...] = (-0.1, -0.30)   # where a fetched object goes (world x, y; before the person)
     # PHMMs (Humanoids 2008 §III) trained on the demonstrations' kinematics, 3 x 3 grid over the objects' area
@@ -52,8 +52,8 @@ class Config:
     robot_hand: str = "barrett"
     approach: str = "phmm"               # the arm's approach: the synthesised reach ("phmm") or a straight line
     place_tolerance_m: float = 0.05      # a task succeeds with the right object within this of the place, upright
-    # a transfer's place from the object's own displacement in the video (`place.scene_place`; else, and where
-    # that finds nothing, from the hand's), the scene at rest over place_rest_s before and after the movement
+    # a transfer's place from the object's own displacement in the video (`lfd_jax.imitation.scene_place`; else,
+    # and where that finds nothing, from the hand's), the scene at rest over place_rest_s before and after the movement
     place_from_scene: bool = True
     place_rest_s: float = 0.5
 

@@ -1,4 +1,4 @@
-"""Demo stage "imitation" of `experiments.demo`: one demonstration through the whole loop (issue 21's
+"""Demo stage "imitation" of `experiments.demo`: one demonstration through the whole loop (the
 quick preset, one evaluated demonstration): the rendered video, the stereo front end, the online PHMMs,
 the grasp recogniser, the robot's task, and the side-by-side video (the person | the robot)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Demonstrations for the imitation loop (issue 21, "The loop"; LfD 2009 §III-A, §V): a person at the
+"""Demonstrations for the imitation loop (LfD 2009 §III-A, §V): a person at the
 table with the three OAC objects at random places either points at one of them (the robot must fetch
 it) or picks one up with one of the six grasps (`sim.human_grasps`, GRASP §II) and puts it down at a
 new place (the robot must repeat the transfer).
@@ -23,11 +23,11 @@ from experiments.data.video import render as vrender
 from experiments.data.video.people import TABLE
 from experiments.data.video.settings import SOURCE_PACKAGES
 from lfd_common import Cache, check_int, check_real
+from lfd_jax.imitation import KINDS
 from sim.grasping import GRASP_CLASSES
 from sim.hands import GRASP_POSTURES
 from sim.hands import NEUTRAL_POSTURE_DEG, clip_posture
 
-KINDS: tuple[str, ...] = ("point", "transfer")
 N_OBJECTS = len(video.OBJECTS)
 # where objects may stand (world x, y of the grasped part): inside the table-top study's raster, in the
 # right hand's half, clear of the left forearm
@@ -143,16 +143,16 @@ def _transfer(who, track: kin.Track, demo: Demo, settings: video.VideoSettings) 
     s = min_jerk(np.arange(1, n_carry + 1) / n_carry)
     shift = s[:, None] * (goal - start) + (0.10 * np.sin(np.pi * s))[:, None] * np.array([0.0, 0.0, 1.0])
     carry = _take(pose, np.full(n_carry, g))
-    ref = np.repeat(kin._unit(pose.r_elbow[g] - pose.r_shoulder[g])[None], n_carry, 0)
-    sh, el, wr = kin._arm(who, carry.r_shoulder, wrist[g] + shift, ref)
+    ref = np.repeat(kin.unit(pose.r_elbow[g] - pose.r_shoulder[g])[None], n_carry, 0)
+    sh, el, wr = kin.arm(who, carry.r_shoulder, wrist[g] + shift, ref)
     obj = carry.object_pos.copy()
     obj[:, k] = start + (wr - wrist[g])
     carry = carry._replace(r_shoulder=sh, r_elbow=el, r_wrist=wr, object_pos=obj)
     after = _take(pose, np.arange(g + 1, len(wrist)))
     moved = obj[-1, k] - start
     w = p[g + 1:, None]
-    sh, el, wr = kin._arm(who, after.r_shoulder, after.r_wrist + w * moved,
-                          kin._unit(after.r_elbow - after.r_shoulder))
+    sh, el, wr = kin.arm(who, after.r_shoulder, after.r_wrist + w * moved,
+                          kin.unit(after.r_elbow - after.r_shoulder))
     obj_after = after.object_pos.copy()
     obj_after[:, k] = obj[-1, k]
     after = after._replace(r_shoulder=sh, r_elbow=el, r_wrist=wr, object_pos=obj_after)
@@ -188,16 +188,16 @@ def render_demo(settings: video.VideoSettings, demo: Demo, cache: bool = True, p
     script = _gesture_script(demo)
 
     def render() -> video.Recording:
-        scenes = vrender._Scenes(settings)
+        scenes = vrender.Scenes(settings)
         try:
             who = _demo_actor(scenes, demo)
-            return vrender._render(scenes.scene(demo.person), who, demo_track(who, demo, settings), settings,
-                                   script, progress)
+            return vrender.render_track(scenes.scene(demo.person), who, demo_track(who, demo, settings), settings,
+                                        script, progress)
         finally:
             scenes.close()
 
     rec = _DEMOS.get(render, enabled=cache, settings=settings, demo=demo)
-    return vrender._camera_noise(rec, settings, script)
+    return vrender.camera_noise(rec, settings, script)
 
 
 def table_z() -> float:

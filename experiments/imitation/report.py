@@ -23,7 +23,7 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
     """report.md: the loop's figures beside the papers' (where they have one), the failures by stage,
     the validation choices and every demonstration."""
     lines = [
-        "# Imitation: from a demonstration video to the robot (issue 21, \"The loop\")", "",
+        "# Imitation: from a demonstration video to the robot", "",
         f"{metrics['n_demonstrations']} demonstrations ({metrics['n_point']} pointing, {metrics['n_transfer']} "
         f"pick-and-place) at {settings.width} x {settings.height}, {settings.fps:g} fps; "
         f"persons 0-{cfg.demonstrators - 1} "

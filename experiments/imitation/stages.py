@@ -1,10 +1,9 @@
-"""The stages of the imitation loop and its `main` (issue 21, "The loop"): skin models, the grasp
+"""The stages of the imitation loop and its `main`: skin models, the grasp
 recogniser, the PHMMs, the settings chosen on validation demonstrations, every evaluated demonstration
 through the loop (`run_demo`), the metrics, the report and a side-by-side video."""
 from __future__ import annotations
 
 import time
-import types
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -14,11 +13,10 @@ import sim
 from experiments.config import parse_config, progress
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
-from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo
+from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo, table_z
 from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser
-from experiments.imitation.place import place_reader
 from lfd_common import Cache, enable_compilation_cache
-from sim.grasping import GRASP_CLASSES
+from lfd_jax import imitation as im
 
 STAGES = ("tracking", "action", "target", "grasp", "place")  # recognition stages, in the loop's order
 _TRAIN_SEED = 2000
@@ -38,20 +36,19 @@ class Models(NamedTuple):
     sigma_m: float
     threshold_m: float
     online: Any
-    reach: Any  # the reach PHMM with the chosen observation noise (`pipeline.reach_target`)
+    reach: Any  # the reach PHMM with the chosen observation noise (`lfd_jax.imitation.reach_target`)
 
 
 def skin_models(cfg: Config, settings):
     """The video study's skin models from the clips of the last `n_skin_persons` (no demonstrator)."""
-    from experiments.video_segmentation.stages import skin_stage
+    from experiments.data.video import fit_skin_models
 
-    chroma, rgb, _ = skin_stage(types.SimpleNamespace(seed=cfg.seed, n_skin_persons=cfg.n_skin_persons), settings,
-                                range(cfg.demonstrators, cfg.n_persons))
+    chroma, rgb, _ = fit_skin_models(settings, range(cfg.demonstrators, cfg.n_persons), cfg.seed)
     return chroma, rgb
 
 
-# `pipeline.train_phmms` runs the demonstrations' kinematics and `phmm_jax`; the pipeline module's import
-# closure is `TRACK_PACKAGES` and `phmm_jax`.
+# `pipeline.train_phmms` runs the demonstrations' kinematics, `lfd_jax.imitation` and `phmm_jax`; the pipeline
+# module's import closure is `TRACK_PACKAGES` and `phmm_jax`.
 _PHMMS = Cache("imitation_phmm", packages=pl.TRACK_PACKAGES + ("phmm_jax",))
 
 
@@ -72,12 +69,12 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
     the detector's threshold, chosen on `n_validation` demonstrations of their own seed by the number of
     right actions plus right targets (ties: the first in the config's order)."""
     demos = draw_demos(cfg.n_validation, cfg.seed + VALIDATION_SEED, cfg.demonstrators, cfg.handover_xy)
-    actors = pl._Actors(settings)
+    actors = pl.Actors(settings)
     tracked, gaps = [], []
     for demo in progress(demos, desc="validation demonstrations"):
         rec, t = tracked_demo(cfg, settings, demo, rgb_skin)
         x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
-        both = pl.plausible(t, cfg.median_frames) & visible[: len(t.found)]
+        both = im.plausible(t, cfg.median_frames) & visible[: len(t.found)]
         gaps.append(t.diff[both] - x[: len(t.found)][both])
         tracked.append(t)
     gaps = np.concatenate(gaps) if gaps else np.zeros((0, 3))
@@ -85,12 +82,12 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
     scores = {}
     for sigma in cfg.noise_sigmas_m:
         for thr in cfg.online_thresholds_m:
-            online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+            online = im.recognizer(phmms, sigma, thr, cfg.online_window)
             reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
             score = 0
             for demo, t in zip(demos, tracked):
-                r = pl.recognise_demo(online, t, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                                      merge_gap=cfg.merge_gap, reach_phmm=reach)
+                r = im.recognise_demo(online, t, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+                                      merge_gap=cfg.merge_gap, reach_phmm=reach, area=pl.AREA)
                 score += (r.kind == demo.kind) + (r.target == demo.target)
             scores[(sigma, thr)] = score
     sigma, thr = max(scores, key=lambda k: scores[k])  # the first maximum: dict order = config order
@@ -115,7 +112,7 @@ def prepare(cfg: Config, settings) -> tuple[Models, dict, dict]:
     t0 = time.perf_counter()
     offset, sigma, thr, metrics = validation_stage(cfg, settings, phmms, rgb)
     times["validation_s"] = time.perf_counter() - t0
-    online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+    online = im.recognizer(phmms, sigma, thr, cfg.online_window)
     reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
     return Models(chroma, rgb, grasp, phmms, offset, sigma, thr, online, reach), metrics, times
 
@@ -133,34 +130,29 @@ def scene_objects(demo: Demo) -> tuple[int, ...]:
     return tuple(objects)
 
 
-def task_spec(cfg: Config, demo: Demo, r: pl.Recognised) -> sim.TaskSpec:
-    """The `sim.TaskSpec` of what was recognised: the recognised object among the scene's objects
-    (`scene_objects`), the recognised grasp (a pointing demonstration: the grasp class of the object's
-    stand-in), the hand-over spot or the recognised place; the orientation: the controller's canonical
-    one (the recognised orientation is relative to the camera and not turned into the world here)."""
-    objects = scene_objects(demo)
-    grasp = r.grasp if (r.kind == "transfer" and r.grasp in GRASP_CLASSES) else objects[r.target]
-    return sim.TaskSpec(objects=objects, object_xy=np.asarray(demo.objects_xy, float), target=int(r.target),
-                       grasp=int(grasp), place_xy=np.asarray(r.place_xy, float), hand_rot=None, tactile=True,
-                       hand=cfg.robot_hand)
+def task_spec(cfg: Config, demo: Demo, r: im.Recognised) -> sim.TaskSpec:
+    """The `sim.TaskSpec` of what was recognised (`lfd_jax.imitation.task_spec`) in the robot scene of the
+    demonstration (`scene_objects`) with `cfg.robot_hand`."""
+    return im.task_spec(r, scene_objects(demo), demo.objects_xy, cfg.robot_hand)
 
 
-def robot_task(cfg: Config, demo: Demo, r: pl.Recognised, phmms, render: bool = False):
-    """The robot repeats what was recognised (`sim.task_controller.run_task`, MAP §III grasp strategy
+def robot_task(cfg: Config, demo: Demo, r: im.Recognised, phmms, render: bool = False):
+    """The robot repeats what was recognised (`lfd_jax.imitation.robot_task`, MAP §III grasp strategy
     through the mapping table) with the `task_spec`, approaching along the synthesised reach to the
-    object (`pipeline.synthesised_reach` of the reach PHMM; `cfg.approach`). Returns the
-    `sim.TaskResult`."""
-    spec = task_spec(cfg, demo, r)
-    path = pl.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target]) if cfg.approach == "phmm" else None
-    return sim.run_task(spec, approach_path=path, seed=int(demo.seed % 1000), options=sim.TaskOptions(render=render))
+    object (the reach PHMM `phmms[pipeline.REACH]` where `cfg.approach` is "phmm", else a straight line).
+    Returns the `sim.TaskResult`."""
+    reach = phmms[pl.REACH] if cfg.approach == "phmm" else None
+    return im.robot_task(r, scene_objects(demo), demo.objects_xy, reach, cfg.robot_hand, seed=int(demo.seed % 1000),
+                         render=render, area=pl.AREA)
 
 
 # ------------------------------------------------------------------------------------------ per demo
-def scene_reader(cfg: Config, rec, tracked: pl.Tracked):
-    """`place.place_reader` on the recording's left view (None without `cfg.place_from_scene`)."""
+def scene_reader(cfg: Config, rec, tracked: im.Tracked):
+    """`lfd_jax.imitation.place_reader` on the recording's left view (None without `cfg.place_from_scene`)."""
     if not cfg.place_from_scene:
         return None
-    return place_reader(rec.left, rec.P_left, rec.fps, tracked.start, cfg.online_window, cfg.place_rest_s)
+    return im.place_reader(rec.left, rec.P_left, rec.fps, tracked.start, cfg.online_window, cfg.place_rest_s,
+                           table_z=table_z())
 
 
 def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = True, render_robot: bool = False) -> dict:
@@ -175,14 +167,15 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     times["tracking_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked.hand_rc, settings)
-    r = pl.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
-                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach, scene=scene_reader(cfg, rec, tracked))
+    r = im.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+                          grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach,
+                          scene=scene_reader(cfg, rec, tracked), area=pl.AREA)
     times["recognition_s"] = time.perf_counter() - t0
     truth_xy = np.asarray(demo.objects_xy)[demo.target]
     out = {"kind": demo.kind, "kind_recognised": r.kind, "target": demo.target, "target_recognised": r.target,
            "target_error_cm": float(np.linalg.norm(r.target_xy - truth_xy) * 100) if r.kind else float("nan"),
            "grasp": demo.grasp, "grasp_recognised": r.grasp,
-           "tracked_frames": int(pl.plausible(tracked, cfg.median_frames).sum()),
+           "tracked_frames": int(im.plausible(tracked, cfg.median_frames).sum()),
            "place_error_cm": float("nan"), "pickup_error_frames": float("nan"), "putdown_error_frames": float("nan"),
            "recognised": r, "rec": rec, "tracked": tracked}
     if demo.kind == "transfer" and r.kind == "transfer":
@@ -210,8 +203,8 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     return out
 
 
-def task_done(cfg: Config, demo: Demo, r: pl.Recognised, res: sim.TaskResult) -> bool:
-    """The issue's task success: the demonstrated object (the robot handles the recognised one) ended
+def task_done(cfg: Config, demo: Demo, r: im.Recognised, res: sim.TaskResult) -> bool:
+    """The task success: the demonstrated object (the robot handles the recognised one) ended
     within `cfg.place_tolerance_m` of the demonstrated place (the hand-over spot for pointing), upright
     and released; whatever grasp class the robot used."""
     off = np.linalg.norm(np.asarray(res.object_pos, float)[:2] - np.asarray(demo.place_xy, float))

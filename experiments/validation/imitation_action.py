@@ -1,9 +1,9 @@
-"""Whether the video's moved object should overrule the online PHMMs' action (issue 21): transfer and
+"""Whether the video's moved object should overrule the online PHMMs' action: transfer and
 pointing demonstrations of a validation seed of their own (the grasp stage's validation stream, not the
 evaluated ones) through the loop's front end, online PHMMs and validation choices; prints the action
 accuracy from the PHMMs alone and with the loop's rule (a movement the PHMMs call a pointing is a
 transfer where the video shows an object moved, and one they call a transfer a pointing where it shows
-none moved; `pipeline.recognise_demo` with `stages.scene_reader`), and how many the rule turned, rightly
+none moved; `lfd_jax.imitation.recognise_demo` with `stages.scene_reader`), and how many the rule turned, rightly
 and wrongly.
 
     python experiments/validation/imitation_action.py [--preset paper] [--n 24] [--n-point 12]
@@ -12,12 +12,12 @@ import argparse
 
 import numpy as np
 
-from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED
 from experiments.imitation.demonstrations import draw_demos
 from experiments.imitation.stages import tracked_demo, scene_reader
 from experiments.validation.imitation_grasp import SEED_OFFSET
 from experiments.validation.imitation_place import loop_models
+from lfd_jax import imitation as im
 
 
 def main() -> None:
@@ -33,7 +33,7 @@ def main() -> None:
     rows = []
     for demo in demos:
         rec, tracked = tracked_demo(cfg, settings, demo, rgb)
-        r = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+        r = im.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                               merge_gap=cfg.merge_gap, reach_phmm=reach, scene=scene_reader(cfg, rec, tracked))
         rows.append((demo.kind, r.kind_phmm, r.kind))
         print(f"{demo.kind}: the PHMMs {r.kind_phmm}, the loop {r.kind}", flush=True)

@@ -1,8 +1,8 @@
-"""Where the imitation loop puts a transfer's object (issue 21): transfer demonstrations of a validation
+"""Where the imitation loop puts a transfer's object: transfer demonstrations of a validation
 seed of their own (the grasp stage's validation stream, not the evaluated ones) through the loop's
 front end, online PHMMs and validation choices; prints the median place error, the share within the
 task's 5 cm, and the mean absolute pick-up / put-down frame errors, over the transfers recognised as
-one, with the place read from the tracked hand (`pipeline.recognise_demo` without a scene reader), from
+one, with the place read from the tracked hand (`lfd_jax.imitation.recognise_demo` without a scene reader), from
 the object's displacement in the video where it is found and the hand's elsewhere (the loop's
 `stages.scene_reader`), and, for comparison, from the renderer's true hand at the detected and at the
 true pick-up and put-down frames; and how often the target object is right from the PHMMs alone
@@ -21,6 +21,7 @@ from experiments.imitation.demonstrations import demo_track, draw_demos
 from experiments.imitation.stages import tracked_demo, phmm_models, scene_reader, skin_models, validation_stage
 from experiments.validation.imitation_grasp import SEED_OFFSET
 from lfd_common import enable_compilation_cache
+from lfd_jax import imitation as im
 
 
 def loop_models(preset: str):
@@ -32,7 +33,7 @@ def loop_models(preset: str):
     _, rgb = skin_models(cfg, settings)
     phmms = phmm_models(cfg, settings)
     offset, sigma, thr, _ = validation_stage(cfg, settings, phmms, rgb)
-    online = pl.recognizer(phmms, sigma, thr, cfg.online_window)
+    online = im.recognizer(phmms, sigma, thr, cfg.online_window)
     return cfg, settings, rgb, online, P.with_observation_noise(phmms[pl.REACH], sigma ** 2), offset
 
 
@@ -44,15 +45,15 @@ def main() -> None:
     cfg, settings, rgb, online, reach, offset = loop_models(args.preset)
     demos = draw_demos(args.n, cfg.seed + VALIDATION_SEED + SEED_OFFSET, cfg.demonstrators, cfg.handover_xy,
                        kinds=("transfer",))
-    actors = pl._Actors(settings)
+    actors = pl.Actors(settings)
     rows = []
     for demo in demos:
         rec, tracked = tracked_demo(cfg, settings, demo, rgb)
-        r = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+        r = im.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                               merge_gap=cfg.merge_gap, reach_phmm=reach)
         if r.kind != "transfer":
             continue
-        seen = pl.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
+        seen = im.recognise_demo(online, tracked, offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                                  merge_gap=cfg.merge_gap, reach_phmm=reach, scene=scene_reader(cfg, rec, tracked))
         x, _ = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
         true_g, true_p = int(rec.pickup_frames[0]) - 1, int(rec.putdown_frames[0])

@@ -1,5 +1,5 @@
-"""How far the imitation loop's tracked hand - face lies from the demonstrations' kinematics, per preset
-(issue 21): on each preset's validation demonstrations, the frames that are tracked, plausible and
+"""How far the imitation loop's tracked hand - face lies from the demonstrations' kinematics, per preset:
+on each preset's validation demonstrations, the frames that are tracked, plausible and
 visible, the median gap (the tracker offset the loop subtracts) and the residual after it.
 
     python experiments/validation/imitation_tracks.py [PRESET ...]     (default: quick paper)
@@ -13,6 +13,7 @@ from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import demo_track, draw_demos
 from experiments.imitation.stages import tracked_demo, skin_models
 from lfd_common import enable_compilation_cache
+from lfd_jax import imitation as im
 
 
 def preset_gaps(preset: str) -> None:
@@ -21,12 +22,12 @@ def preset_gaps(preset: str) -> None:
     settings = cfg.video_settings()
     _, rgb_skin = skin_models(cfg, settings)
     demos = draw_demos(cfg.n_validation, cfg.seed + VALIDATION_SEED, cfg.demonstrators, cfg.handover_xy)
-    actors = pl._Actors(settings)
+    actors = pl.Actors(settings)
     gaps = []
     for demo in demos:
         _, tracked = tracked_demo(cfg, settings, demo, rgb_skin)
         x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
-        both = pl.plausible(tracked, cfg.median_frames) & visible[: len(tracked.found)]
+        both = im.plausible(tracked, cfg.median_frames) & visible[: len(tracked.found)]
         gap = tracked.diff[both] - x[: len(tracked.found)][both]
         gaps.append(gap)
         median = np.round(np.median(gap, 0) * 100, 1) if len(gap) else "none"

@@ -1,5 +1,6 @@
 """Validation sweep of the object in the hand on the two seed-1 long recordings (never the test
-recordings), the video front end computed once and cached under /tmp/dbg.
+recordings), the video front end computed once and kept under
+`lfd_common.cache_dir("validation")`.
 
     python experiments/validation/object_in_hand.py '[{}, {"remove_person": true}, {"threshold": 1.0}, {"motion": 4.0}]'
 
@@ -17,7 +18,7 @@ from experiments.peers.object_peer import peer_object_masks
 from hog_jax.video import (HAND, BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, front_end,
                            stereo_camera_from_matrices)
 from hog_jax.video import SKIN, PERSON, OBJECT
-from lfd_common import enable_compilation_cache
+from lfd_common import cache_dir, enable_compilation_cache
 
 sim.setup_rendering()
 enable_compilation_cache()
@@ -26,8 +27,7 @@ settings = cfg.video_settings()
 scripts = video.long_scripts(settings)
 data = []
 for i, script in enumerate(scripts):
-    os.makedirs("/tmp/dbg", exist_ok=True)
-    path = f"/tmp/dbg/front_{i}.npz"
+    path = str(cache_dir("validation") / f"object_in_hand_front_{i}.npz")
     rec = video.render_recording(settings, script, progress=None)
     if not os.path.exists(path):
         _, rgb_skin, _ = video.fit_skin_models(settings, range(8, 10), cfg.seed)

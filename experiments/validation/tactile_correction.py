@@ -1,4 +1,4 @@
-"""Does the volar grasps' tactile correction (MAP §III) fire, and what does it change? (issue 21)
+"""Does the volar grasps' tactile correction (MAP §III) fire, and what does it change?
 
 Rolls out a handful of Small Diameter (or Large Diameter) trials with a 5 cm position error in a few
 directions, each with and without the tactile correction, on the `native` backend (the MuJoCo C engine)

@@ -53,7 +53,8 @@ class Track(NamedTuple):
     n_empty: int
 
 
-def _unit(v):
+def unit(v):
+    """v (..., D) scaled to unit length along the last axis (zero vectors stay zero)."""
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
 
 
@@ -66,10 +67,10 @@ def _blend(rot, w):
 
 def _between(u0, u):
     """Smallest rotations (T, 3, 3) taking direction u0 (3,) to directions u (T, 3)."""
-    u0, u = _unit(u0), _unit(u)
+    u0, u = unit(u0), unit(u)
     axis = np.cross(u0, u)
     angle = np.arctan2(np.linalg.norm(axis, axis=-1), np.sum(u0 * u, -1))
-    return Rotation.from_rotvec(_unit(axis) * angle[:, None]).as_matrix()
+    return Rotation.from_rotvec(unit(axis) * angle[:, None]).as_matrix()
 
 
 def _ramp(n, start=0.0, width=1.0):
@@ -82,13 +83,13 @@ def _hand_frame(m: np.ndarray) -> np.ndarray:
     """The right hand's frame (T, 3, 3) (`sim.human_hand`: x to the fingers, y to the thumb, z the back
     of the hand) from table-top markers (T, 7, 3): wrist, knuckle and thumb tip."""
     wrist, knuckle, thumb = m[:, 3], m[:, 4], m[:, 6]
-    d = _unit(knuckle - wrist)
+    d = unit(knuckle - wrist)
     t = thumb - wrist
-    t = _unit(t - np.sum(t * d, -1, keepdims=True) * d)
+    t = unit(t - np.sum(t * d, -1, keepdims=True) * d)
     # the thumb lies between the radial side and the palm side: turn it back onto the radial side
     side = t * np.cos(_THUMB_ANGLE) + np.cross(d, t) * np.sin(_THUMB_ANGLE)
-    d = _unit(knuckle - wrist - 0.015 * side)
-    side = _unit(side - np.sum(side * d, -1, keepdims=True) * d)
+    d = unit(knuckle - wrist - 0.015 * side)
+    side = unit(side - np.sum(side * d, -1, keepdims=True) * d)
     return np.stack([d, side, np.cross(d, side)], axis=-1)
 
 
@@ -100,12 +101,12 @@ def _hand_frames(m: np.ndarray, progress: np.ndarray) -> np.ndarray:
     return _blend(goal @ rest.T, progress) @ rest
 
 
-def _arm(actor: Actor, shoulder, wrist, reference):
+def arm(actor: Actor, shoulder, wrist, reference):
     """Shoulder (the girdle protracts up to 6 cm towards a far wrist), elbow and the reachable wrist."""
     a, b = actor.look.upper_arm_m, actor.look.forearm_m
     d = wrist - shoulder
     extra = np.clip(np.linalg.norm(d, axis=-1, keepdims=True) - 0.985 * (a + b), 0.0, 0.06)
-    shoulder = shoulder + extra * _unit(d)
+    shoulder = shoulder + extra * unit(d)
     elbow, reach = elbow_centres(shoulder, wrist, a, b, reference)
     return shoulder, elbow, reach
 
@@ -167,8 +168,8 @@ def _oac(actor: Actor, rng, action: int, obj: int, rest, settings: VideoSettings
         shoulder = m[idx, 1] + b[:, None] * (home - m[k, 1])
         wrist = w[idx] + b[:, None] * (wrist_goal - w[k])
         seg = {"R": _blend(trunk[k].T, b) @ trunk[idx], "rh": _blend(hand_goal @ hands[k].T, b) @ hands[idx]}
-        reference = (1 - b[:, None]) * _unit(m[idx, 2] - m[idx, 1]) + b[:, None] * _ELBOW_OUT
-        seg["rs"], seg["re"], seg["rw"] = _arm(actor, shoulder, wrist, reference)
+        reference = (1 - b[:, None]) * unit(m[idx, 2] - m[idx, 1]) + b[:, None] * _ELBOW_OUT
+        seg["rs"], seg["re"], seg["rw"] = arm(actor, shoulder, wrist, reference)
         return seg
 
     b_in = _ramp(h0 + 1, 0.4, 0.6)[:-1]
@@ -178,7 +179,7 @@ def _oac(actor: Actor, rng, action: int, obj: int, rest, settings: VideoSettings
     b_out = 1.0 - _ramp(len(back) + 1, 0.0, 0.6)[1:]
     withdraw = blended(back, h1, b_out, wrist_h[-1], hand_h[-1])
     withdraw["fing"] = held + _ramp(len(back) + 1)[1:, None] * (NEUTRAL_POSTURE_DEG - held)
-    shoulder, elbow, _ = _arm(actor, np.repeat(home[None], n, 0), wrist_h, np.repeat(_ELBOW_OUT[None], n, 0))
+    shoulder, elbow, _ = arm(actor, np.repeat(home[None], n, 0), wrist_h, np.repeat(_ELBOW_OUT[None], n, 0))
     transport = {"R": np.repeat(np.eye(3)[None], n, 0), "rs": shoulder, "re": elbow, "rw": wrist_h, "rh": hand_h,
                  "fing": np.repeat(held[None], n, 0)}
     segs = []
@@ -226,9 +227,9 @@ def _left_arm(actor: Actor, trunk_rot, offset, settle0: int, settle1: int):
     delta = actor.left_wrist - hang
     wrist = hang + np.concatenate([out * delta[:, :2], up * delta[:, 2:]], axis=1)
     reference = (1 - s) * np.array([0.3, 0.3, -1.0]) + s * np.array([1.0, 0.2, -0.3])
-    shoulder, elbow, wrist = _arm(actor, shoulder, wrist, reference)
+    shoulder, elbow, wrist = arm(actor, shoulder, wrist, reference)
     along = elbow - wrist
-    flat = _unit(np.concatenate([-along[:, :2], np.zeros((t_total, 1))], axis=1))
+    flat = unit(np.concatenate([-along[:, :2], np.zeros((t_total, 1))], axis=1))
     on_table = np.stack([flat, np.cross(np.array([0.0, 0.0, 1.0]), flat), np.broadcast_to([0.0, 0.0, 1.0], flat.shape)], -1)
     hanging = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # fingers down, palm to the thigh
     hand = _blend(on_table @ hanging.T, s[:, 0]) @ hanging

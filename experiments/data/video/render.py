@@ -54,7 +54,7 @@ def _frame(pose: ScenePose, t: int) -> ScenePose:
     return ScenePose(*(f[t] for f in pose))
 
 
-def _camera_noise(rec: Recording, settings: VideoSettings, script: Script) -> Recording:
+def camera_noise(rec: Recording, settings: VideoSettings, script: Script) -> Recording:
     """The recording with the camera noise of `settings.pixel_noise` (deterministic from the seeds;
     added after the cache, which keeps the noise-free images: they compress several times better)."""
     if settings.pixel_noise == 0:
@@ -70,8 +70,8 @@ def _camera_noise(rec: Recording, settings: VideoSettings, script: Script) -> Re
     return rec._replace(left=views[0], right=views[1])
 
 
-def _render(scene: PersonScene, who: Actor, track: Track, settings: VideoSettings, script: Script,
-            progress=None) -> Recording:
+def render_track(scene: PersonScene, who: Actor, track: Track, settings: VideoSettings, script: Script,
+                 progress=None) -> Recording:
     """Render every frame of `track` in `scene` (its renderers reused across frames), noise-free."""
     n, h, w, k = len(track.action), settings.height, settings.width, len(OBJECTS)
     rgb = np.empty((n, 2, h, w, 3), np.uint8)
@@ -105,7 +105,7 @@ def _render(scene: PersonScene, who: Actor, track: Track, settings: VideoSetting
         light=track.light, P_left=p[0], P_right=p[1], n_empty=track.n_empty, person=script.person, fps=settings.fps)
 
 
-class _Scenes:
+class Scenes:
     """One compiled scene (and its renderers) per person, made when first needed."""
 
     def __init__(self, settings: VideoSettings):
@@ -129,16 +129,16 @@ class _Scenes:
         self.scenes = {}
 
 
-def _recording(scenes: _Scenes, script: Script, cache: bool, progress) -> Recording:
+def _recording(scenes: Scenes, script: Script, cache: bool, progress) -> Recording:
     settings = scenes.settings
     script = check_script(script, settings)
 
     def render() -> Recording:
         who = scenes.actor(script.person)
-        return _render(scenes.scene(script.person), who, script_track(who, script, settings), settings, script,
-                       progress)
+        return render_track(scenes.scene(script.person), who, script_track(who, script, settings), settings, script,
+                            progress)
 
-    return _camera_noise(RENDERS.get(render, enabled=cache, settings=settings, script=script), settings, script)
+    return camera_noise(RENDERS.get(render, enabled=cache, settings=settings, script=script), settings, script)
 
 
 def _check_settings(settings) -> None:
@@ -153,7 +153,7 @@ def render_recording(settings: VideoSettings, script: Script, cache: bool = True
     `progress`: a wrapper of an iterable for a progress bar over the frames (tqdm by default, silent when
     `LFD_NO_PROGRESS` is set; None for none)."""
     _check_settings(settings)
-    scenes = _Scenes(settings)
+    scenes = Scenes(settings)
     try:
         return _recording(scenes, script, cache, progress)
     finally:
@@ -196,7 +196,7 @@ def long_scripts(settings: VideoSettings) -> list[Script]:
 
 
 def _video_set(settings: VideoSettings, items, cache: bool, progress) -> VideoSet:
-    scenes = _Scenes(settings)
+    scenes = Scenes(settings)
     try:
         recs = [_recording(scenes, s, cache, progress) for *_, s in items]
     finally:
@@ -228,7 +228,7 @@ def iter_clips(settings: VideoSettings = VideoSettings(), cache: bool = True,
     _check_settings(settings)
 
     def generate():
-        scenes = _Scenes(settings)
+        scenes = Scenes(settings)
         try:
             for p, c, r, s in clip_scripts(settings):
                 yield p, c, r, _recording(scenes, s, cache, progress)
