@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from experiments.grasp_recognition import convnet
-from experiments.grasp_recognition.classifier import classify, fit_classifier
+from lfd_jax import grasp
+from lfd_jax.grasp import classify, fit_classifier
 
 
 def _bars(n: int, seed: int, size: int = 32):
@@ -21,9 +21,9 @@ def _bars(n: int, seed: int, size: int = 32):
 
 def test_convnet_learns_shapes_it_was_not_shown():
     images, masks, labels = _bars(96, 0)
-    clf = convnet.fit_convnet(images, masks, labels, 3, width=4, epochs=25, batch=32)
+    clf = grasp.fit_convnet(images, masks, labels, 3, width=4, epochs=25, batch=32)
     new_images, new_masks, new_labels = _bars(60, 1)
-    assert np.mean(convnet.classify_crops(clf, new_images, new_masks) == new_labels) >= 0.9
+    assert np.mean(grasp.classify_crops(clf, new_images, new_masks) == new_labels) >= 0.9
 
 
 def _hand_beside_a_bar(n: int, seed: int, size: int = 32):
@@ -45,21 +45,21 @@ def _hand_beside_a_bar(n: int, seed: int, size: int = 32):
 
 def test_context_convnet_reads_what_is_around_the_hand():
     images, masks, labels, context = _hand_beside_a_bar(96, 5)
-    clf = convnet.fit_convnet(images, masks, labels, 3, width=4, epochs=25, batch=32, context=context)
+    clf = grasp.fit_convnet(images, masks, labels, 3, width=4, epochs=25, batch=32, context=context)
     assert clf.context
     new_images, new_masks, new_labels, new_context = _hand_beside_a_bar(60, 6)
-    assert np.mean(convnet.classify_crops(clf, new_images, new_masks, context=new_context) == new_labels) >= 0.9
+    assert np.mean(grasp.classify_crops(clf, new_images, new_masks, context=new_context) == new_labels) >= 0.9
     with pytest.raises(ValueError, match="context"):
-        convnet.classify_crops(clf, new_images, new_masks)  # trained on context: it needs it
+        grasp.classify_crops(clf, new_images, new_masks)  # trained on context: it needs it
     with pytest.raises(ValueError, match="context"):
-        convnet.network_input(new_images, new_masks, new_context[:, :16])
+        grasp.network_input(new_images, new_masks, new_context[:, :16])
 
 
 def test_augment_keeps_the_context_where_it_cuts_holes_in_the_mask():
     import jax
     _, masks, _ = _bars(8, 2)
-    x = convnet.network_input(masks.astype(np.float32), masks, context=np.ones(masks.shape, np.float32))
-    out = np.asarray(convnet.augment(jax.random.key(0), x, context=True))
+    x = grasp.network_input(masks.astype(np.float32), masks, context=np.ones(masks.shape, np.float32))
+    out = np.asarray(grasp.augment(jax.random.key(0), x, context=True))
     assert np.all(np.isin(out[..., 1], (0.0, 1.0))) and out[..., 1].sum() < x[..., 1].sum()
     zero = out[..., 0] == 0.0  # only the strips the shift brought in from outside the crop
     assert np.all(~zero | zero.all(2, keepdims=True) | zero.all(1, keepdims=True))
@@ -68,8 +68,8 @@ def test_augment_keeps_the_context_where_it_cuts_holes_in_the_mask():
 def test_augment_shifts_and_cuts_holes_but_adds_nothing():
     import jax
     _, masks, _ = _bars(8, 2)
-    x = convnet.network_input(masks.astype(np.float32), masks)
-    out = np.asarray(convnet.augment(jax.random.key(0), x))
+    x = grasp.network_input(masks.astype(np.float32), masks)
+    out = np.asarray(grasp.augment(jax.random.key(0), x))
     assert out.shape == x.shape
     assert np.all(np.isin(out[..., 1], (0.0, 1.0)))  # the mask stays a mask
     assert np.all(out[..., 1].sum((1, 2)) <= x[..., 1].sum((1, 2)))  # holes and shifts only remove
@@ -79,15 +79,15 @@ def test_augment_shifts_and_cuts_holes_but_adds_nothing():
 def test_convnet_rejects_bad_input():
     images, masks, labels = _bars(6, 3)
     with pytest.raises(ValueError, match="images"):
-        convnet.network_input(images[:, :30, :30], masks[:, :30, :30])
+        grasp.network_input(images[:, :30, :30], masks[:, :30, :30])
     with pytest.raises(ValueError, match="masks"):
-        convnet.network_input(images, masks[:, :8])
+        grasp.network_input(images, masks[:, :8])
     with pytest.raises(ValueError, match="images"):
-        convnet.network_input(np.where(masks, np.nan, images), masks)
+        grasp.network_input(np.where(masks, np.nan, images), masks)
     with pytest.raises(ValueError, match="labels"):
-        convnet.fit_convnet(images, masks, labels + 3, 3)
+        grasp.fit_convnet(images, masks, labels + 3, 3)
     with pytest.raises(ValueError, match="images"):
-        convnet.network_input(images[:0], masks[:0])
+        grasp.network_input(images[:0], masks[:0])
 
 
 def test_cached_convnet_trains_once_per_settings(tmp_path, monkeypatch):
@@ -96,11 +96,11 @@ def test_cached_convnet_trains_once_per_settings(tmp_path, monkeypatch):
 
     def train():
         calls.append(1)
-        return convnet.ConvClassifier({"w": np.arange(3.0)})
+        return grasp.ConvClassifier({"w": np.arange(3.0)})
 
-    first = convnet.cached_convnet({"a": 1}, train)
-    again = convnet.cached_convnet({"a": 1}, train)
-    convnet.cached_convnet({"a": 2}, train)
+    first = grasp.cached_convnet({"a": 1}, train)
+    again = grasp.cached_convnet({"a": 1}, train)
+    grasp.cached_convnet({"a": 2}, train)
     assert len(calls) == 2 and np.array_equal(again.params["w"], first.params["w"])
 
 

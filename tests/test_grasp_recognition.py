@@ -166,7 +166,7 @@ def test_nuisances_switch_off_one_difference_at_a_time(x_set):
 
 
 def test_degraded_crops_lose_detail_finer_than_the_hand_s_pixels_and_keep_the_rest():
-    from experiments.grasp_recognition.pieces import degrade_crops
+    from experiments.data.grasp_database import degrade_crops
 
     S = 32
     r, c = np.mgrid[:S, :S]

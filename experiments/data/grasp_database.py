@@ -1,5 +1,9 @@
-"""A domain-randomised view database and training scenes for grasp recognition (issue 20), and the
+"""A domain-randomised view database and training scenes for grasp recognition, and the
 validation hand.
+
+`database` builds the grasp recognition study's view database (`DatabaseOptions`, its presets'
+values in `DATABASE_PRESETS`): GRASP's grid of rendered views, the randomised views below, crops
+degraded to a small hand (`degrade_crops`).
 
 GRASP's database (`sim.grasp_views.view_database`) shows one hand in one exact posture per grasp. Test
 images show another hand, on its way to the grasp, with its joints a little off. `randomized_views`
@@ -17,9 +21,12 @@ Shapes: V views, S crop pixels.
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 import cv2
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from hog_jax import euler_to_quat
@@ -27,6 +34,7 @@ from experiments.data.grasp_tests import clutter_background
 from lfd_common import Cache, check_int, check_real
 from sim.grasping import GRASP_CLASSES
 from sim.grasping import GraspRenderer, ViewDatabase, crop_hand, hand_center, sphere_camera, view_euler
+from sim.grasping import ViewOptions, view_database
 from sim.hands import posture
 from sim.hands import DEFAULT_SHAPE, HandShape, clip_posture
 
@@ -191,5 +199,90 @@ def concatenate_databases(*dbs: ViewDatabase) -> ViewDatabase:
     return ViewDatabase(*(np.concatenate([getattr(d, f) for d in dbs]) for f in ViewDatabase._fields))
 
 
-__all__ = ["VALIDATION_SHAPE", "SceneSet", "concatenate_databases", "random_hand", "randomized_scenes",
-           "randomized_views"]
+def degrade_crops(images: np.ndarray, masks: np.ndarray, pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Crops (N, S, S) and masks as a camera that saw the hand `pixels` across would give them: resampled
+    (linear, antialiased) down to pixels x pixels and back up to S x S, as `hog_jax.segment` resamples a
+    small box; masks through the same path, thresholded at 0.5. ValueError naming the argument."""
+    images = np.asarray(images, np.float32)
+    if images.ndim != 3 or images.shape[1] != images.shape[2]:
+        raise ValueError(f"images: expected (N, S, S) crops, got shape {images.shape}")
+    if np.shape(masks) != images.shape:
+        raise ValueError(f"masks: expected the images' shape {images.shape}, got {np.shape(masks)}")
+    side = images.shape[1]
+    if isinstance(pixels, bool) or not isinstance(pixels, (int, np.integer)) or not 1 <= pixels <= side:
+        raise ValueError(f"pixels: expected an int in [1, {side}], got {pixels!r}")
+
+    def through(x):
+        small = jax.image.resize(jnp.asarray(x, jnp.float32), (len(x), pixels, pixels), "linear", antialias=True)
+        return jax.image.resize(small, (len(x), side, side), "linear", antialias=True)
+
+    m = masks.astype(np.float32)
+    return np.asarray(through(images * m)), np.asarray(through(m)) > 0.5
+
+
+@dataclasses.dataclass(frozen=True)
+class DatabaseOptions:
+    """The grasp recognition study's view database (`database`); the defaults are GRASP's (60 x 15
+    views per grasp, §V)."""
+
+    seed: int = 0
+    n_azimuth: int = 60
+    n_elevation: int = 15
+    render_size: int = 128
+    crop_size: int = 64
+    n_random_views: int = 0          # domain-randomised views per grasp added to the grid (0: none) ...
+    random_pool: int = 8100          # ... drawn at random from a rendered pool of this many per grasp
+    n_random_hands: int = 30         # random hands per grasp the pool is spread over
+    db_pixels: int = 0               # crops degraded to a hand this many pixels across (0: as rendered)
+
+    def __post_init__(self):
+        for name in ("n_azimuth", "n_elevation", "render_size", "crop_size", "random_pool", "n_random_hands"):
+            check_int(getattr(self, name), name, min_value=1)
+        check_int(self.seed, "seed", min_value=0)
+        check_int(self.n_random_views, "n_random_views", min_value=0, max_value=self.random_pool)
+        check_int(self.db_pixels, "db_pixels", min_value=0, max_value=self.crop_size)
+
+
+# The database fields of the grasp recognition study's presets (its `config.PRESETS` take them from here;
+# the imitation loop's grasp stage builds the database of a preset by name).
+DATABASE_PRESETS: dict[str, dict] = {
+    "quick": {"n_azimuth": 30, "n_elevation": 8},
+    "paper": {},
+    "best": {"n_random_views": 8100},
+}
+
+
+def grid_views(n_azimuth: int, n_elevation: int, render_size: int = 128, crop_size: int = 64,
+               progress=None) -> ViewDatabase:
+    """GRASP's grid database (`sim.grasping.view_database`): every grasp class from an azimuth x
+    elevation grid, `render_size` renders cropped to `crop_size`. `progress(iterable, total, desc)`
+    wraps the per-grasp loops."""
+    return view_database(GRASP_CLASSES, n_azimuth, n_elevation,
+                         ViewOptions(render_size=render_size, out_size=crop_size), progress=progress)
+
+
+def database(options: DatabaseOptions, progress=None) -> ViewDatabase:
+    """The grid database, plus `options.n_random_views` domain-randomised views per grasp, a seeded random
+    subset of a pool of `options.random_pool` per grasp (one rendered pool serves every size); with
+    `options.db_pixels`, every crop degraded to that resolution (`degrade_crops`).
+    `progress(iterable, total, desc)` wraps the rendering loops."""
+    if not isinstance(options, DatabaseOptions):
+        raise ValueError(f"options: expected DatabaseOptions, got {type(options).__name__}")
+    cfg = options
+    db = grid_views(cfg.n_azimuth, cfg.n_elevation, cfg.render_size, cfg.crop_size, progress)
+    if cfg.n_random_views:
+        pool = randomized_views(cfg.random_pool, cfg.n_random_hands, cfg.seed, cfg.render_size, cfg.crop_size,
+                                progress=progress)
+        rng = np.random.default_rng([cfg.seed, 21])
+        rows = np.concatenate([g * cfg.random_pool + np.sort(rng.choice(cfg.random_pool, cfg.n_random_views,
+                                                                        replace=False))
+                               for g in range(len(GRASP_CLASSES))])
+        db = concatenate_databases(db, type(pool)(*(a[rows] for a in pool)))
+    if not cfg.db_pixels:
+        return db
+    images, masks = degrade_crops(db.images, db.masks, cfg.db_pixels)
+    return db._replace(images=images, masks=masks)
+
+
+__all__ = ["DATABASE_PRESETS", "VALIDATION_SHAPE", "DatabaseOptions", "SceneSet", "concatenate_databases", "database",
+           "degrade_crops", "grid_views", "random_hand", "randomized_scenes", "randomized_views"]

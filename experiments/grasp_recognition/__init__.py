@@ -15,10 +15,10 @@ X' (24, without the most neutral snapshots), X'' (12 completed grasps) and a lar
 test frame goes through the `hog_jax` skin segmentation (skin model fitted on hands of other skin
 tones and other clutter); a frame where no skin is found counts as an error.
 
-Presets: `paper` is the paper's method as it is; `best` (issue 20, chosen on a validation split of its
+Presets: `paper` is the paper's method as it is; `best` (chosen on a validation split of its
 own seed and hand, `ablation`) adds a domain-randomised database (`experiments.data.grasp_database`), a
 whitened-LDA metric, a skin model adapted to each frame, the class from a small convnet on the unmasked
-box around the hand (the held object included) trained on rendered scenes (`convnet`,
+box around the hand (the held object included) trained on rendered scenes (`lfd_jax.grasp.fit_convnet`,
 `grasp_database.randomized_scenes`; eq. 4's orientation within that class) and multi-probe LSH tuned on
 query-like validation images. Both run the ladder (`ladder`): the test sets re-rendered with one more of their
 differences from the database per rung, from the database hand on black to the full test.

@@ -1,4 +1,4 @@
-"""What each improvement beyond the paper contributes (issue 20), by exact kNN on one split.
+"""What each improvement beyond the paper contributes, by exact kNN on one split.
 
     python -m experiments.grasp_recognition.ablation --split validation --out DIR
     python -m experiments.grasp_recognition.ablation --split test --out DIR
@@ -26,10 +26,10 @@ from experiments.config import markdown_table, progress
 from experiments.data.grasp_database import VALIDATION_SHAPE
 from experiments.data.grasp_tests import random_set, sequence_set, skin_training_pixels, stage_subsets
 from experiments.grasp_recognition.config import PRESETS, Config
-from experiments.grasp_recognition.pieces import accuracy, bar, orientation_errors_deg, segment_frames, wilson_interval
-from experiments.grasp_recognition.recogniser import build_recogniser, features, net_labels, recognise
-from experiments.grasp_recognition.stages import database
+from experiments.grasp_recognition.pieces import accuracy, bar, orientation_errors_deg, wilson_interval
+from experiments.grasp_recognition.recogniser import recogniser_of, study_database
 from lfd_common import enable_compilation_cache
+from lfd_jax.grasp import features, net_labels, recognise, segment_frames
 
 VARIANTS: dict[str, dict] = {
     "paper (60 x 15 grid, B4 L3, plain HOG)": {},
@@ -82,7 +82,7 @@ def split_sets(cfg: Config, split: str) -> dict:
 
 def evaluate(cfg: Config, sets: dict, crops: dict, skin) -> dict:
     """Exact-kNN accuracy (large with its interval, X / X' / X'') and geodesic error on the correct."""
-    rec = build_recogniser(cfg, jax.random.key(cfg.seed), database(cfg), None, skin)
+    rec = recogniser_of(cfg, jax.random.key(cfg.seed), study_database(cfg), None, skin)
     out = {"n_database_views": len(rec.db.labels)}
     for name, t in sets.items():
         c = crops[name]

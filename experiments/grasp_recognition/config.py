@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import dataclasses
 
+from experiments.data.grasp_database import DATABASE_PRESETS
+
 PAPER = {"accuracy_X": 0.61, "accuracy_Xp": 0.71, "accuracy_Xpp": 0.75, "human_X": 0.74,
          "orientation_error_deg": (0.0, 16.8, 10.5)}
 EULER_NAMES = ("azimuth", "elevation", "roll")
@@ -30,7 +32,7 @@ class Config:
     bins_sweep: tuple[int, ...] = (3, 4, 5, 6, 8)
     levels_sweep: tuple[int, ...] = (2, 3, 4, 5)
     timing_repeats: int = 5
-    # issue 20: the database, features, metric and index beyond the paper (defaults: the paper's method)
+    # beyond the paper: the database, features, metric and index beyond the paper (defaults: the paper's method)
     n_random_views: int = 0          # domain-randomised views per grasp added to the grid (0: none) ...
     random_pool: int = 8100          # ... drawn at random from a rendered pool of this many per grasp
     n_random_hands: int = 30         # random hands per grasp the pool is spread over
@@ -89,17 +91,17 @@ class Config:
 
 
 PRESETS = {
-    "quick": {"n_azimuth": 30, "n_elevation": 8, "n_large": 60, "n_held_out": 60, "k_values": (1, 5, 10, 20),
+    "quick": {**DATABASE_PRESETS["quick"], "n_large": 60, "n_held_out": 60, "k_values": (1, 5, 10, 20),
               "db_grids": ("20x5", "30x8"), "bins_sweep": (3, 8), "levels_sweep": (2, 3), "timing_repeats": 3,
               "ladder": False, "n_validation": 60},
-    "paper": {},
+    "paper": {**DATABASE_PRESETS["paper"]},
     # chosen on the validation split (`python -m experiments.grasp_recognition.ablation --split validation`):
     # the domain-randomised database (10x), the whitened-LDA metric, the frame-adapted background model, the
-    # class from the convnet on the unmasked box around the hand (`convnet`, trained 60 epochs on 5,000 rendered
+    # class from the convnet on the unmasked box around the hand (`lfd_jax.grasp`, trained 60 epochs on 5,000 rendered
     # scenes per grasp, `randomized_scenes`; eq. 3's kNN vote is reported beside it), eq. 4's orientation within
     # that class; LSH with four probes per table tuned on query-like validation images (the fewest probes of
     # 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries: `lsh_probes`)
-    "best": {"n_random_views": 8100, "metric": "lda", "skin_adaptation": "background", "lsh_tuning": "validation",
+    "best": {**DATABASE_PRESETS["best"], "metric": "lda", "skin_adaptation": "background", "lsh_tuning": "validation",
              "lsh_probes": 4, "sweeps": False, "classifier": "scene_cnn", "cnn_epochs": 60},
 }
 

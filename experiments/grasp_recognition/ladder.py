@@ -1,4 +1,4 @@
-"""The ladder of issue 20: where the accuracy goes between the database and the full test images.
+"""The ladder: where the accuracy goes between the database and the full test images.
 
 Rung r renders the test sets (X and the large set, the same seeds, grasps, stages and viewpoints as the
 full test) with one more of the test images' differences from the database switched on than rung r - 1:
@@ -22,7 +22,8 @@ import numpy as np
 import hog_jax
 from experiments.data.grasp_tests import ALL_NUISANCES, GraspTestSet, Nuisances, random_set, sequence_set
 from experiments.grasp_recognition.config import Config
-from experiments.grasp_recognition.pieces import Crops, bar, crops_of
+from experiments.grasp_recognition.pieces import bar
+from lfd_jax.grasp import Crops, crops_of
 from sim.hands import DEFAULT_SHAPE, TEST_SHAPE, HandShape
 
 

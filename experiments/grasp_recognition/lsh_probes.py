@@ -1,4 +1,4 @@
-"""Multi-probe LSH settings of the best preset, chosen on validation images only (issue 20).
+"""Multi-probe LSH settings of the best preset, chosen on validation images only.
 
     python -m experiments.grasp_recognition.lsh_probes
 
@@ -20,9 +20,10 @@ import sim
 from experiments.timing import time_call
 from experiments.data.grasp_tests import skin_training_pixels
 from experiments.grasp_recognition.config import PRESETS, Config
-from experiments.grasp_recognition.recogniser import build_recogniser, features
-from experiments.grasp_recognition.stages import database, validation_crops
+from experiments.grasp_recognition.recogniser import recogniser_of, study_database
+from experiments.grasp_recognition.stages import validation_crops
 from lfd_common import enable_compilation_cache
+from lfd_jax.grasp import features
 
 N_SINGLE = 200  # held-out queries timed one at a time
 
@@ -34,7 +35,7 @@ def main() -> None:
     skin = hog_jax.fit_skin_model(jax.random.fold_in(jax.random.key(cfg.seed), 1),
                                   *skin_training_pixels(cfg.seed, cfg.n_skin_images))
     val = validation_crops(cfg, skin)
-    rec = build_recogniser(cfg, jax.random.key(cfg.seed), database(cfg), None, skin)
+    rec = recogniser_of(cfg, jax.random.key(cfg.seed), study_database(cfg), None, skin)
     q = features(rec, val.images, val.masks, val.found)[val.found]
     half = len(q) // 2
     held_out = q[half:]

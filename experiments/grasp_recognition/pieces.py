@@ -1,19 +1,17 @@
-"""Pieces of the grasp recognition protocol: database and held-out views, skin segmentation, HOG,
-kNN prediction, orientation errors, confusion, the sensitivity sweeps."""
+"""Pieces of the grasp recognition protocol: database and held-out views, orientation errors, confusion,
+the sensitivity sweeps (segmentation, HOG and kNN come from `lfd_jax.grasp`)."""
 from __future__ import annotations
 
-from typing import NamedTuple
-
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 import hog_jax
 from experiments.config import progress
+from experiments.data.grasp_database import grid_views
 from experiments.grasp_recognition.config import Config, parse_grid
 from lfd_common import quat_to_matrix
+from lfd_jax.grasp import hog_features, knn_predict
 from sim.grasping import GRASP_CLASSES, GRASP_MAPPINGS
-from sim.grasping import ViewOptions, render_views, view_database
+from sim.grasping import ViewOptions, render_views
 
 
 def bar(desc):
@@ -21,30 +19,8 @@ def bar(desc):
 
 
 def render_database(cfg: Config, n_azimuth: int, n_elevation: int):
-    return view_database(GRASP_CLASSES, n_azimuth, n_elevation,
-                         ViewOptions(render_size=cfg.render_size, out_size=cfg.crop_size),
-                         progress=lambda it, total, desc: progress(it, desc=desc, total=total))
-
-
-def degrade_crops(images: np.ndarray, masks: np.ndarray, pixels: int) -> tuple[np.ndarray, np.ndarray]:
-    """Crops (N, S, S) and masks as a camera that saw the hand `pixels` across would give them: resampled
-    (linear, antialiased) down to pixels x pixels and back up to S x S, as `hog_jax.segment` resamples a
-    small box; masks through the same path, thresholded at 0.5. ValueError naming the argument."""
-    images = np.asarray(images, np.float32)
-    if images.ndim != 3 or images.shape[1] != images.shape[2]:
-        raise ValueError(f"images: expected (N, S, S) crops, got shape {images.shape}")
-    if np.shape(masks) != images.shape:
-        raise ValueError(f"masks: expected the images' shape {images.shape}, got {np.shape(masks)}")
-    side = images.shape[1]
-    if isinstance(pixels, bool) or not isinstance(pixels, (int, np.integer)) or not 1 <= pixels <= side:
-        raise ValueError(f"pixels: expected an int in [1, {side}], got {pixels!r}")
-
-    def through(x):
-        small = jax.image.resize(jnp.asarray(x, jnp.float32), (len(x), pixels, pixels), "linear", antialias=True)
-        return jax.image.resize(small, (len(x), side, side), "linear", antialias=True)
-
-    m = masks.astype(np.float32)
-    return np.asarray(through(images * m)), np.asarray(through(m)) > 0.5
+    return grid_views(n_azimuth, n_elevation, cfg.render_size, cfg.crop_size,
+                      progress=lambda it, total, desc: progress(it, desc=desc, total=total))
 
 
 def held_out_views(cfg: Config):
@@ -54,69 +30,6 @@ def held_out_views(cfg: Config):
     parts = [render_views(g, rng.uniform(0, 360, per), rng.uniform(0, 90, per),
                           ViewOptions(render_size=cfg.render_size, out_size=cfg.crop_size)) for g in GRASP_CLASSES]
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-
-
-class Crops(NamedTuple):
-    """The hand crops of N frames: images (N, S, S) grey times the hand mask; masks (N, S, S) bool; found
-    (N,) bool (False: no hand, zero crop); context (N, S, S) the same boxes unmasked
-    (`hog_jax.Segmentation.context`)."""
-
-    images: np.ndarray
-    masks: np.ndarray
-    found: np.ndarray
-    context: np.ndarray
-
-    def take(self, rows) -> "Crops":
-        """The crops of `rows` (an index or boolean array)."""
-        return Crops(*(a[rows] for a in self))
-
-
-def crops_of(seg) -> Crops:
-    """A `hog_jax.Segmentation`'s crops as NumPy arrays."""
-    return Crops(*(np.asarray(a) for a in (seg.images, seg.masks, seg.found, seg.context)))
-
-
-def segment_frames(skin, frames: np.ndarray, crop_size: int, chunk: int = 64, adaptation: str = "none") -> Crops:
-    """Skin segmentation of test frames (N, H, W, 3), seeded at the frame centre (where the camera aims):
-    their `Crops`. `chunk` frames per call bounds the memory.
-    adaptation: "none" (the global skin model), "background" or "both" (`hog_jax.segment_adapted`: the
-    background mixture, or both mixtures, adapted to each frame; relevance 64 pixels, 5 iterations,
-    chosen on validation images by the skin mask's IoU)."""
-    n, h, w, _ = frames.shape
-    parts = []
-    for i in range(0, n, chunk):
-        part = frames[i: i + chunk]
-        seeds = np.tile([h / 2.0, w / 2.0], (len(part), 1))
-        if adaptation == "none":
-            seg = hog_jax.segment(skin, part, seed_points=seeds, out_size=crop_size)
-        else:
-            seg = hog_jax.segment_adapted(skin, part, seed_points=seeds, out_size=crop_size, n_iter=5, relevance=64.0,
-                                          adapt_skin=adaptation == "both")
-        parts.append(crops_of(seg))
-    return Crops(*(np.concatenate(a) for a in zip(*parts)))
-
-
-def hog_features(images, masks, found, config: hog_jax.HOGConfig) -> np.ndarray:
-    """HOG (N, D) of the found crops; rows of failed segmentations stay zero (never used)."""
-    x = np.zeros((images.shape[0], hog_jax.hog_dim(config)), np.float32)
-    ok = found & (images.reshape(len(images), -1).max(1) > 0)
-    if ok.any():
-        x[ok] = np.asarray(hog_jax.hog(images[ok], config, mask=masks[ok]))
-    return x
-
-
-def knn_predict(model, x, ok, k, **lsh):
-    """Labels (N,) with -1 where segmentation failed, Euler (N, 3), quaternions (N, 4), neighbours."""
-    labels = np.full(len(x), -1, np.int32)
-    euler = np.full((len(x), 3), np.nan, np.float32)
-    quat = np.full((len(x), 4), np.nan, np.float32)
-    idx = np.full((len(x), k), -1, np.int32)
-    dist = np.full((len(x), k), np.inf, np.float32)
-    if ok.any():
-        p = hog_jax.predict(model, x[ok], k=k, **lsh)
-        labels[ok], euler[ok], quat[ok] = np.asarray(p.label), np.asarray(p.euler), np.asarray(p.quat)
-        idx[ok], dist[ok] = np.asarray(p.indices), np.asarray(p.distances)
-    return labels, euler, quat, idx, dist
 
 
 def orientation_errors_deg(pred_euler, true_euler, pred_quat, true_quat) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,9 @@ import numpy as np
 
 import hog_jax
 from experiments.data.grasp_tests import GraspTestSet, stage_subsets
-from experiments.grasp_recognition.pieces import (Crops, accuracy, confusion, orientation_errors_deg,
-                                                  symmetric_errors_deg, wilson_interval)
-from experiments.grasp_recognition.recogniser import Recognised, Recogniser, features, net_labels, recognise
+from experiments.grasp_recognition.pieces import (accuracy, confusion, orientation_errors_deg, symmetric_errors_deg,
+                                                  wilson_interval)
+from lfd_jax.grasp import Crops, Recognised, Recogniser, features, net_labels, recognise
 from sim.grasping import GRASP_CLASSES
 
 
@@ -34,7 +34,7 @@ def lsh_recall(rec: Recogniser, q: np.ndarray) -> float:
 
 
 def score_sets(rec: Recogniser, tests: dict[str, GraspTestSet], crops: dict[str, Crops]) -> SetScores:
-    """Recognise every crop of `tests` ({'X': ..., 'large': ...}; crops: name -> `pieces.Crops`)
+    """Recognise every crop of `tests` ({'X': ..., 'large': ...}; crops: name -> `lfd_jax.grasp.Crops`)
     by the recogniser (its network's class, or eq. 3 by its LSH index) and by eq. 3 with exact search
     (`accuracy_*_exact_knn`), and score them."""
     m, results, feats, mats = {}, {}, {}, {}

@@ -12,17 +12,17 @@ import hog_jax
 import sim
 from experiments.timing import time_call
 from experiments.config import StageResult, parse_config, progress
-from experiments.data.grasp_database import VALIDATION_SHAPE, concatenate_databases, randomized_views
+from experiments.data.grasp_database import VALIDATION_SHAPE
 from experiments.data.grasp_tests import random_set, sequence_set, skin_training_pixels
 from experiments.grasp_recognition import plots
 from experiments.grasp_recognition.config import EULER_NAMES, PRESETS, Config
 from experiments.grasp_recognition.ladder import RUNGS, mask_crops, rung_sets
-from experiments.grasp_recognition.pieces import (Crops, accuracy, bar, degrade_crops, held_out_views, render_database,
-                                                  robot_accuracy, segment_frames, sweeps)
-from experiments.grasp_recognition.recogniser import Recogniser, build_recogniser, net_labels
+from experiments.grasp_recognition.pieces import accuracy, bar, held_out_views, robot_accuracy, sweeps
+from experiments.grasp_recognition.recogniser import recogniser_of, study_database
 from experiments.grasp_recognition.scoring import score_sets
 from experiments.grasp_recognition.report import report
 from lfd_common import enable_compilation_cache
+from lfd_jax.grasp import Crops, Recogniser, net_labels, segment_frames
 from sim.grasping import GRASP_CLASSES
 
 
@@ -38,25 +38,6 @@ class Setup(NamedTuple):
     metrics: dict
 
 
-def database(cfg: Config):
-    """The grid database, plus `cfg.n_random_views` domain-randomised views per grasp, a seeded random
-    subset of a pool of `cfg.random_pool` per grasp (one rendered pool serves every size); with
-    `cfg.db_pixels`, every crop degraded to that resolution (`degrade_crops`)."""
-    db = render_database(cfg, cfg.n_azimuth, cfg.n_elevation)
-    if cfg.n_random_views:
-        pool = randomized_views(cfg.random_pool, cfg.n_random_hands, cfg.seed, cfg.render_size, cfg.crop_size,
-                                progress=lambda it, total, d: progress(it, desc=d, total=total))
-        rng = np.random.default_rng([cfg.seed, 21])
-        rows = np.concatenate([g * cfg.random_pool + np.sort(rng.choice(cfg.random_pool, cfg.n_random_views,
-                                                                        replace=False))
-                               for g in range(len(GRASP_CLASSES))])
-        db = concatenate_databases(db, type(pool)(*(a[rows] for a in pool)))
-    if not cfg.db_pixels:
-        return db
-    images, masks = degrade_crops(db.images, db.masks, cfg.db_pixels)
-    return db._replace(images=images, masks=masks)
-
-
 def validation_crops(cfg: Config, skin) -> Crops:
     """Query-like validation images (their own seed and hand, `VALIDATION_SHAPE`, every nuisance of the
     test), skin-segmented like the test."""
@@ -70,7 +51,7 @@ def setup_stage(cfg: Config) -> Setup:
     tuned on held-out database views or on validation images, `cfg.lsh_tuning`) and score the tests."""
     key = jax.random.key(cfg.seed)
     t0 = time.perf_counter()
-    db = database(cfg)
+    db = study_database(cfg)
     db_s = time.perf_counter() - t0
     t0 = time.perf_counter()
     X = sequence_set(cfg.seed, cfg.frame_size, progress=bar("render X"))
@@ -88,7 +69,7 @@ def setup_stage(cfg: Config) -> Setup:
         tuning = Crops(ho_img, ho_mask, np.ones(len(ho_img), bool), ho_img)  # database views: black around the hand
     else:
         tuning = validation_crops(cfg, skin)
-    rec = build_recogniser(cfg, key, db, tuning, skin)
+    rec = recogniser_of(cfg, key, db, tuning, skin)
     scores = score_sets(rec, tests, seg)
     metrics = {"n_database_views": len(db.labels), "n_views_per_grasp": len(db.labels) // len(GRASP_CLASSES),
                "n_test_X": len(X.labels), "n_test_large": len(large.labels), "hog_dim": int(rec.model.data.shape[1]),
@@ -111,7 +92,7 @@ def recognition_stage(cfg: Config, s: Setup) -> tuple[StageResult, dict]:
     for st, sname in enumerate(("stage0", "stage1", "stage2")):
         sel = large.stage == st
         m[f"accuracy_large_{sname}"] = accuracy(res["large"].labels[sel], large.labels[sel])
-    # the issue's key: on X's correctly classified images, like the plain `orientation_geodesic_error_deg`
+    # the headline key: on X's correctly classified images, like the plain `orientation_geodesic_error_deg`
     m["orientation_geodesic_error_deg_correct"] = m["orientation_geodesic_error_deg_X_correct"]
     m["lsh_recall_at_k_test_queries"] = m.pop("lsh_recall_at_k_large")
     m.pop("lsh_recall_at_k_X")

@@ -1,25 +1,29 @@
-"""The imitation loop's grasp stage (issue 21; GRASP §III): the demonstrating hand's crop at the grasp
-moment and its grasp class by eq. 3's kNN over HOG, from one of two databases:
+"""The imitation loop's grasp stage (GRASP §III-V): the demonstrating hand's crop at the grasp moment
+and its grasp class by eq. 3's kNN over HOG (`lfd_jax.grasp`), from one of two databases:
 
-- "study": the grasp recognition study's rendered hand views (`cfg.grasp_preset`, optionally degraded
-  to `cfg.grasp_db_pixels`); orientation by eq. 4.
+- "study": the grasp recognition study's rendered hand views (the database of its preset
+  `cfg.grasp_preset`, `experiments.data.grasp_database.DATABASE_PRESETS`, optionally degraded to
+  `cfg.grasp_db_pixels`), GRASP's recogniser on it (`RecogniserOptions` defaults); orientation by eq. 4.
 - "demonstrations": hand crops cut the same way from transfer demonstrations of their own seed (never
   the evaluated or the validation ones), around each one's pick-up frame, labelled with its grasp. No
   orientation (the crops carry none): the quaternion is NaN.
 
 Why both: at 320 x 240 the demonstrating hand is about 16 pixels across, its crop holds part of the
 wrist and the object, and the study's views (a bare hand, 64 pixels, every direction of the upper half
-sphere) recognise it below chance on validation crops (`experiments/validation/imitation_grasp.py`;
-README, issue 21)."""
+sphere) recognise it below chance on validation crops (`experiments/validation/imitation_grasp.py`)."""
 from __future__ import annotations
 
 import jax
 import numpy as np
 
 import hog_jax
+from experiments.config import progress
 from experiments.data import video
+from experiments.data.grasp_database import DATABASE_PRESETS, DatabaseOptions, database
 from experiments.imitation.config import Config
 from experiments.imitation.demonstrations import draw_demos, render_demo
+from lfd_jax.grasp import (Recogniser, RecogniserOptions, build_recogniser, features, hog_config, hog_features,
+                           recognise)
 from sim.grasping import GRASP_CLASSES
 
 _GRASP_SEED = 3000  # the demonstrations of the "demonstrations" database (PHMMs: 2000, validation: 1000)
@@ -49,18 +53,19 @@ def crop_window(cfg: Config, settings: video.VideoSettings) -> int:
     return round(cfg.grasp_window_frac * settings.width)
 
 
-def _study_config(cfg: Config):
-    from experiments.config import resolve_config
-    from experiments.grasp_recognition.config import PRESETS as GP, Config as GConfig
-
-    return resolve_config(GConfig, GP, cfg.grasp_preset, {"seed": cfg.seed, "db_pixels": cfg.grasp_db_pixels})
+def database_options(cfg: Config) -> DatabaseOptions:
+    """The view database of the grasp study's preset `cfg.grasp_preset`, with cfg's seed and
+    `grasp_db_pixels`."""
+    if cfg.grasp_preset not in DATABASE_PRESETS:
+        raise ValueError(f"grasp_preset: expected one of {sorted(DATABASE_PRESETS)}, got {cfg.grasp_preset!r}")
+    return DatabaseOptions(**{**DATABASE_PRESETS[cfg.grasp_preset], "seed": cfg.seed, "db_pixels": cfg.grasp_db_pixels})
 
 
 def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin, n: int, seed: int):
     """Hand crops of n transfer demonstrations drawn with `seed`, at their pick-up frame shifted by each
     of `cfg.grasp_frames_s`, cut at the renderer's right-hand centroid (the tracker taken out): images
     (N, S, S), masks, found (N,), grasp classes (N,), demonstration index (N,)."""
-    crop_size = _study_config(cfg).crop_size
+    crop_size = database_options(cfg).crop_size
     window = crop_window(cfg, settings)
     demos = draw_demos(n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
     shifts = sorted({round(s * settings.fps) for s in cfg.grasp_frames_s})
@@ -81,21 +86,18 @@ def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin,
 
 
 def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
-    """(study config, `experiments.grasp_recognition.recogniser.Recogniser`) of `cfg.grasp_database`."""
-    from experiments.grasp_recognition.pieces import hog_features
-    from experiments.grasp_recognition.recogniser import Recogniser, build_recogniser, hog_config
-    from experiments.grasp_recognition.stages import database
-
-    gcfg = _study_config(cfg)
+    """(database options, `lfd_jax.grasp.Recogniser`) of `cfg.grasp_database`."""
+    dcfg, options = database_options(cfg), RecogniserOptions(seed=cfg.seed)
     if cfg.grasp_database == "study":
-        return gcfg, build_recogniser(gcfg, jax.random.key(cfg.seed), database(gcfg), None)
+        db = database(dcfg, progress=lambda it, total, d: progress(it, desc=d, total=total))
+        return dcfg, build_recogniser(options, jax.random.key(cfg.seed), db, None)
     images, masks, found, grasps, _ = demonstration_crops(cfg, settings, chroma_skin, cfg.grasp_train_demos,
                                                           cfg.seed + _GRASP_SEED)
-    hcfg = hog_config(gcfg)
+    hcfg = hog_config(options)
     x = hog_features(images, masks, found, hcfg)[found]
     labels = np.array([GRASP_CLASSES.index(g) for g in grasps[found]])
     model = hog_jax.fit(x, labels, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
-    return gcfg, Recogniser(hcfg, None, model, {}, None, gcfg.k, None)
+    return dcfg, Recogniser(hcfg, None, model, {}, None, options.k, None)
 
 
 def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording, hand_rc: np.ndarray,
@@ -103,13 +105,11 @@ def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording,
     """frame -> (grasp class, quaternion) of the hand crop at that frame, cut at `hand_rc` (T, 2) (row,
     col) of the tracked hand (-1 and NaN where no hand is found; NaN quaternion from the
     "demonstrations" database)."""
-    from experiments.grasp_recognition.recogniser import features, recognise
-
-    gcfg, recogniser = models_grasp
+    dcfg, recogniser = models_grasp
     window = crop_window(cfg, settings)
 
     def at(frame: int):
-        images, masks, found = hand_crop(rec.left[frame][None], hand_rc[frame], chroma_skin, gcfg.crop_size, window)
+        images, masks, found = hand_crop(rec.left[frame][None], hand_rc[frame], chroma_skin, dcfg.crop_size, window)
         if not found.any():
             return -1, np.full(4, np.nan)
         out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
@@ -120,4 +120,4 @@ def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording,
     return at
 
 
-__all__ = ["crop_window", "demonstration_crops", "grasp_function", "grasp_recogniser", "hand_crop"]
+__all__ = ["crop_window", "database_options", "demonstration_crops", "grasp_function", "grasp_recogniser", "hand_crop"]

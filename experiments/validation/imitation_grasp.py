@@ -1,5 +1,5 @@
 """How well the imitation loop's grasp stage recognises the grasp class of the demonstrating hand, per
-database and crop window (issue 21): on transfer demonstrations of a validation seed of their own (not
+database and crop window: on transfer demonstrations of a validation seed of their own (not
 the evaluated ones, not the loop's other validation ones, not the "demonstrations" database's), the
 left view at the true pick-up frame shifted by the loop's `grasp_frames_s`, cut at the renderer's
 right-hand centroid (the tracker taken out) and skin-segmented as the loop does. Prints the accuracy
@@ -13,11 +13,11 @@ import dataclasses
 
 import numpy as np
 
-from experiments.grasp_recognition.recogniser import features, recognise
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.grasp_stage import demonstration_crops, grasp_recogniser
 from experiments.imitation.stages import skin_models
 from lfd_common import enable_compilation_cache
+from lfd_jax.grasp import features, recognise
 from sim.grasping import GRASP_CLASSES
 
 SEED_OFFSET = 77  # a validation stream of its own: not the loop's threshold/offset demonstrations

@@ -26,7 +26,7 @@ import numpy as np
 import hog_jax
 from lfd_jax.cli._src.skin import photo_skin_model
 from lfd_common import markdown_table, progress
-from experiments.grasp_recognition.pieces import hog_features, knn_predict
+from lfd_jax.grasp._src.knn import hog_features, knn_predict
 from lfd_jax.cli._src.plotting import plt
 from lfd_common import cache_dir, check_int, enable_compilation_cache, load_arrays, model_path, save_arrays
 from sim.grasping import GRASP_NAMES, check_grasp_class, robot_grasp_for

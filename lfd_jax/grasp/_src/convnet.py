@@ -1,18 +1,18 @@
-"""A small convolutional network on the hand crops (issue 20, beyond the paper): the grasp class from the
-pixels instead of from HOG, with augmentation for what skin segmentation does to a query crop (shifts,
-brightness, holes in the mask). Orientation stays eq. 4 (`recogniser.recognise`), from database views
-of the predicted class. Two inputs:
+"""A small convolutional network on the hand crops (beyond GRASP): the grasp class from the pixels
+instead of from the HOG kNN vote (§V, eq. 3), with augmentation for what skin segmentation (§III-A)
+does to a query crop (shifts, brightness, holes in the mask). Orientation stays eq. 4 (`recognise`),
+from database views of the predicted class. Two inputs:
 
 * the hand only (`context=None`): the grey crop times its mask, and the mask; trained on the database
   (grid and domain-randomised views, whose background and object are black);
 * the hand in its context: the unmasked box around the hand (`hog_jax.Segmentation.context`: the held
-  object, the background), and the mask; trained on rendered scenes (`grasp_database.randomized_scenes`)
-  segmented like the queries. Holes are then cut from the mask channel only: skin segmentation
-  misses hand pixels, the camera still sees them.
+  object, the background), and the mask; trained on rendered scenes segmented like the queries. Holes
+  are then cut from the mask channel only: skin segmentation misses hand pixels, the camera still
+  sees them.
 
 Layers: 3x3 convolutions, ReLU, stride 2 four times (S -> S / 16) with one stride-1 layer after the
 first, `width`, 2, 4, 8 x `width` channels, dropout 0.3 on the flattened map, a 256-unit dense layer,
-6 logits.
+M logits.
 
 Shapes: N crops, S x S pixels (S a multiple of 16), M classes.
 """
@@ -35,8 +35,13 @@ _VERSION = 1
 
 
 class ConvClassifier(NamedTuple):
-    """params: flat name -> array dict of the network's weights (`_init`); context: whether its first
-    channel is the unmasked box around the hand (else the hand's pixels only)."""
+    """A trained convnet on hand crops (`fit_convnet`).
+
+    Attributes:
+        params: flat name -> array dict of the network's weights.
+        context: whether its first channel is the unmasked box around the hand (else the hand's
+            pixels only).
+    """
 
     params: dict
     context: bool = False
@@ -78,10 +83,21 @@ def logits(params: dict, x: jax.Array, dropout_key=None) -> jax.Array:
 
 
 def augment(key, x: jax.Array, context: bool = False) -> jax.Array:
-    """Inputs x (N, S, S, 2) as a query crop might look: shifted by up to S / 10 pixels, the grey
-    channel scaled by U(0.6, 1.3), and up to three rectangular holes with sides of S / 16 to S / 4
-    (each with probability 0.5) cut from the mask, as skin segmentation leaves holes in a hand, and from
-    the grey channel too unless it is the unmasked `context`."""
+    """Network inputs as a query crop might look after skin segmentation (GRASP §III-A).
+
+    Each input is shifted by up to S / 10 pixels, its grey channel scaled by U(0.6, 1.3), and up to
+    three rectangular holes with sides of S / 16 to S / 4 (each with probability 0.5) are cut from the
+    mask, as skin segmentation leaves holes in a hand, and from the grey channel too unless it is the
+    unmasked context.
+
+    Args:
+        key: a JAX random key.
+        x: (N, S, S, 2) network inputs (`network_input`).
+        context: whether the first channel is the unmasked box around the hand.
+
+    Returns:
+        (N, S, S, 2) the augmented inputs.
+    """
     n, size = x.shape[0], x.shape[1]
     shift = int(round(_SHIFT * size))
     k_shift, k_gain, k_centre, k_side, k_use = jax.random.split(key, 5)
@@ -101,9 +117,20 @@ def augment(key, x: jax.Array, context: bool = False) -> jax.Array:
 
 
 def network_input(images, masks, context=None) -> np.ndarray:
-    """(N, S, S, 2) float32: the crops (N, S, S) times their masks, or the unmasked `context` (N, S, S)
-    when given; and the masks. ValueError naming the argument for a wrong shape, non-finite pixels or S
-    not a multiple of 16."""
+    """The network's two-channel input: the masked crops (or the unmasked boxes) and the masks.
+
+    Args:
+        images: (N, S, S) grey crops times their masks, N >= 1, S a positive multiple of 16.
+        masks: (N, S, S) bool hand masks.
+        context: optional (N, S, S) unmasked boxes around the hand, used instead of `images`.
+
+    Returns:
+        (N, S, S, 2) float32: the crops times their masks (or `context`), and the masks.
+
+    Raises:
+        ValueError: a wrong shape, empty or non-finite pixels, or S not a multiple of 16 (the message
+            names the argument).
+    """
     images = as_array(images, "images", ndim=3, dtype=np.float32)
     if images.shape[1] != images.shape[2] or images.shape[1] % 16 or images.shape[1] == 0:
         raise ValueError(f"images: expected square crops (N, S, S) with S a multiple of 16, got {images.shape}")
@@ -120,7 +147,7 @@ def network_input(images, masks, context=None) -> np.ndarray:
 def _step(optimizer, params, opt_state, key, data, labels, idx, context: bool):
     """One AdamW step on the augmented minibatch `idx` (batch,) of the device-resident data. One call
     per step, not a `lax.scan` over the epoch: XLA:CPU ran these convolutions 23x slower inside the
-    scan's loop (README "Measured design choices")."""
+    scan's loop."""
     k_aug, k_drop = jax.random.split(key)
     xb = augment(k_aug, data[idx], context)
     loss, g = jax.value_and_grad(lambda p: optax.softmax_cross_entropy_with_integer_labels(
@@ -132,10 +159,33 @@ def _step(optimizer, params, opt_state, key, data, labels, idx, context: bool):
 def fit_convnet(images, masks, labels, n_classes: int, seed: int = 0, width: int = 16, epochs: int = 10,
                 batch: int = 128, learning_rate: float = 2e-3, weight_decay: float = 5e-4,
                 progress=None, context=None) -> ConvClassifier:
-    """Train the network on crops (N, S, S) with masks and labels (N,) in [0, n_classes): AdamW with a
-    cosine-decayed rate on the cross-entropy of augmented (`augment`) shuffled minibatches, `epochs`
-    passes. With `context` (N, S, S), the unmasked boxes, the network sees those instead of the masked
-    crops (module docstring). `progress(iterable, total)` wraps the epochs."""
+    """Train the network on hand crops.
+
+    AdamW with a cosine-decayed rate on the cross-entropy of augmented (`augment`) shuffled minibatches,
+    `epochs` passes. With `context`, the network sees the unmasked boxes instead of the masked crops
+    (the module docstring).
+
+    Args:
+        images: (N, S, S) grey crops times their masks, S a multiple of 16.
+        masks: (N, S, S) bool hand masks.
+        labels: (N,) classes in [0, n_classes).
+        n_classes: M >= 2.
+        seed: the initialisation's, shuffling's and augmentation's seed.
+        width: channels of the first layer.
+        epochs: passes over the data.
+        batch: minibatch size (at most N).
+        learning_rate: the initial rate of the cosine schedule.
+        weight_decay: AdamW's decoupled weight decay.
+        progress: optional `progress(iterable, total)` that wraps the epochs (a progress bar).
+        context: optional (N, S, S) unmasked boxes around the hand.
+
+    Returns:
+        The trained `ConvClassifier` (its `context` says which input it was trained on).
+
+    Raises:
+        ValueError: inputs of the wrong shape or non-finite, labels outside [0, n_classes), or a
+            setting out of range (the message names the argument).
+    """
     x = network_input(images, masks, context)
     labels = as_array(labels, "labels", shape=(len(x),), dtype=np.int32)
     n_classes = check_int(n_classes, "n_classes", min_value=2)
@@ -165,8 +215,22 @@ def _predict(params, x):
 
 
 def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256, context=None) -> np.ndarray:
-    """(N,) class indices of crops (N, S, S) with masks (N >= 1), `chunk` crops at a time (bounded memory);
-    a network trained on context needs the unmasked boxes `context` (N, S, S) (ValueError without)."""
+    """The network's classes of hand crops, `chunk` crops at a time (bounded memory).
+
+    Args:
+        clf: a trained `ConvClassifier` (`fit_convnet`).
+        images: (N, S, S) grey crops times their masks, N >= 1.
+        masks: (N, S, S) bool hand masks.
+        chunk: crops per call.
+        context: (N, S, S) unmasked boxes around the hand; required by a network trained on them.
+
+    Returns:
+        (N,) int32 class indices.
+
+    Raises:
+        ValueError: `context` missing for a network trained on it, or inputs as `network_input`
+            rejects them (the message names the argument).
+    """
     if clf.context and context is None:
         raise ValueError("context: this network was trained on the unmasked boxes around the hand; pass them")
     x = network_input(images, masks, context if clf.context else None)
@@ -174,14 +238,34 @@ def classify_crops(clf: ConvClassifier, images, masks, chunk: int = 256, context
                            for i in range(0, len(x), chunk)])
 
 
-# The scene convnet's `train` renders scenes (`sim`, the grasp sets) and segments them (`hog_jax`).
-_NETS = Cache("grasp_cnn", packages=("experiments.grasp_recognition", "experiments.data.grasp_database",
-                                     "experiments.data.grasp_tests", "sim", "hog_jax", "lfd_common"), version=_VERSION)
+# What a network trained by `fit_convnet` depends on besides its settings: this package, the validation in
+# `lfd_common`, and `sim`'s grasp classes (their number is the network's output size).
+_PACKAGES = ("lfd_jax.grasp", "sim", "lfd_common")
+_NETS = Cache("grasp_cnn", packages=_PACKAGES, version=_VERSION)
 
 
-def cached_convnet(settings: dict, train, context: bool = False) -> ConvClassifier:
-    """The network `train()` returns, stored under cache_dir('grasp_cnn') by `settings` (what determines
-    the training data and the training: str-keyed, values keyable by `lfd_common.Cache`, arrays by
-    content) and the source it runs, and reused while they match; `context`: whether it is trained on
-    the unmasked boxes (part of the key)."""
+def cached_convnet(settings: dict, train, context: bool = False,
+                   packages: tuple[str, ...] = ()) -> ConvClassifier:
+    """The network `train()` returns, stored on disk and reused while what it depends on is unchanged.
+
+    Stored under `cache_dir("grasp_cnn")`, keyed by `settings`, `context` and the source of this
+    package, `sim` and `lfd_common`, plus `packages`.
+
+    Args:
+        settings: what determines the training data and the training (str-keyed; values a
+            `lfd_common.Cache` key can hold, arrays by content).
+        train: a function of no arguments that returns the trained `ConvClassifier`.
+        context: whether the network is trained on the unmasked boxes (part of the key).
+        packages: dotted names of further packages whose code `train` runs (the renderer and data
+            generators of its training data, say); their source is part of the key.
+
+    Returns:
+        The stored network, or `train()`'s, stored.
+
+    Raises:
+        ValueError: a setting a cache key cannot hold, or an unknown package (the message names it).
+    """
+    if packages:
+        cache = Cache("grasp_cnn", packages=_PACKAGES + tuple(packages), version=_VERSION)
+        return cache.get(train, settings=settings, context=context)
     return _NETS.get(train, settings=settings, context=context)
