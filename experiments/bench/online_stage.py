@@ -1,4 +1,4 @@
-"""The online-recognition measurements of `bench_hmm` (BMVC 2008 §5.4, issue 21): what one frame of
+"""The online-recognition measurements of `bench_hmm` (BMVC 2008 §5.4): what one frame of
 a live stream costs `phmm_jax`'s online recogniser, and how many streams one core keeps in real time.
 
 * `online_ms_per_frame`: 2 actions (the recognition workload's PHMMs, reaching and pointing, 2x2

@@ -78,7 +78,7 @@ def report(cfg, settings, m: dict, runtime_s: float) -> str:
 
 Recordings: {m['n_recordings']} long unsegmented scripts of `experiments.data.video` preset `{cfg.video_preset}`
 ({settings.width} x {settings.height} at {settings.fps:g} fps, {m['events_true']} true pick-up / put-down periods),
-each through the video front end of issue 18 (skin models from the clips of the last {cfg.n_skin_persons}
+each through the video front end (skin models from the clips of the last {cfg.n_skin_persons}
 person(s), who have no script): level sets, tracking, the tracked right hand in both views. The object in the
 hand: phase differences in a {2 * round(cfg.half_window * cfg.scale(settings)) + 1}-pixel window (ours), and the
 OpenCV peer on the same windows and hand positions. A frame decides "object in hand" only where the hand moved at

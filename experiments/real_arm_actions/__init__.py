@@ -1,4 +1,4 @@
-"""Real arm actions (issue 23): the four UE-ADL daily-living actions (forward reach, reach across,
+"""Real arm actions: the four UE-ADL daily-living actions (forward reach, reach across,
 drink, comb hair) recognised on held-out persons from real motion capture.
 
     python -m experiments.real_arm_actions --data ../shared/data/ue_adl --preset quick|paper --out DIR

@@ -1,4 +1,4 @@
-"""Config and presets of the real-arm action study (UE-ADL, issue 23)."""
+"""Config and presets of the real-arm action study (UE-ADL)."""
 from __future__ import annotations
 
 import dataclasses

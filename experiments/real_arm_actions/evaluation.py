@@ -112,7 +112,7 @@ class SideResult(NamedTuple):
 
 
 def side_regression(train: Dataset, test: Dataset) -> np.ndarray:
-    """The baseline beside the side PHMMs (issue 21): per action, an affine least-squares map from the
+    """The baseline beside the side PHMMs: per action, an affine least-squares map from the
     final fingertip positions to the side (0 left, 1 right), fitted on the training persons. "Final":
     the frame farthest from the trial's first in those features. Markers: both fingertips (RFTP, LFTP
     relative to the sternum); the angle files have no fingertip, so there all their columns. Returns
@@ -154,7 +154,7 @@ def select_side_floor(train: Dataset, setting, cfg, rng: np.random.Generator) ->
     `cfg.n_validation_folds` inner leave-one-person-out folds of the training persons (drawn by
     `rng`; ties go to the smaller floor). With a few training persons the learnt covariances are the
     spread of those persons only, and a new person's offsets are far outside it; φ then moves towards
-    the other corner, whose covariances are wider, instead of saying which arm moved (issue 21).
+    the other corner, whose covariances are wider, instead of saying which arm moved.
     Returns (floor, {str(floor): mean validation |φ − side|})."""
     persons = sorted(set(train.person.tolist()))
     if len(cfg.side_floors) == 1 or len(persons) < 2:

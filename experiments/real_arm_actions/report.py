@@ -35,7 +35,7 @@ chosen explicit-duration setting and a covariance floor chosen on the fold's tra
 leave-one-person-out folds, lowest mean |φ − side|, `side_floors`; metric `side_floors_chosen`);
 recognition (PHMM eq. 3, ε = 0.1) gives the action
 (the best PHMM) and φ; the side is "right" when φ of the true action's PHMM exceeds 0.5. Beside it
-(issue 21), the regression baseline: per action an affine least-squares map from the final fingertip
+the regression baseline: per action an affine least-squares map from the final fingertip
 positions (the frame farthest from the first; the angle files have no fingertip, so all 11 columns
 there) to the side; metrics `side_error_*` are the mean |φ − side| of both."""
 
@@ -44,7 +44,7 @@ def header(cfg, kinds: list[str], runtime_s: float) -> str:
     source = (f"leave-one-person-out over `{cfg.data}`" if cfg.train is None
               else f"trained on `{cfg.train}`, tested on `{cfg.test}`")
     return "\n\n".join([
-        "# Real arm actions: UE-ADL daily-living actions from joint angles and raw markers (issue 23)",
+        "# Real arm actions: UE-ADL daily-living actions from joint angles and raw markers",
         f"Data: {source}; kinds: {', '.join(kinds)}. Run time {runtime_s:.0f} s (all stages).",
         PROTOCOL.format(n_frames=cfg.n_frames, states=", ".join(map(str, cfg.grid_states)),
                         covariances=", ".join(cfg.grid_covariance), n_val=cfg.n_validation_folds,
@@ -100,4 +100,4 @@ def section(kind: str, folds, results: dict, side, cfg) -> str:
 
 
 def skipped(message: str) -> str:
-    return f"# Real arm actions (issue 23)\n\n{message}"
+    return f"# Real arm actions\n\n{message}"

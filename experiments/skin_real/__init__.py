@@ -1,4 +1,4 @@
-"""Skin segmentation on real photos (issue 23).
+"""Skin segmentation on real photos.
 
     python -m experiments.skin_real --data ../shared/data --preset quick|paper --out DIR
 

@@ -1,4 +1,4 @@
-"""Config and presets of the skin segmentation study on real photos (issue 23)."""
+"""Config and presets of the skin segmentation study on real photos."""
 from __future__ import annotations
 
 import dataclasses

@@ -25,7 +25,7 @@ def report(cfg, m: dict, runtime_s: float) -> str:
     chosen = ("chosen on the held-out UCI pixels (the IoU-best threshold of the unfiltered per-pixel rule; "
               "the HGR photos were never used to choose anything)" if m["threshold_source"] == "uci_validation"
               else "given on the command line")
-    return f"""# Skin segmentation on real photos (issue 23)
+    return f"""# Skin segmentation on real photos
 
 Skin model: `hog_jax.fit_skin_model` (skin and non-skin Gaussian mixtures of {cfg.n_components} and
 {cfg.n_background} components over BT.601 (Cr, Cb), {cfg.n_iter} EM iterations) fitted on {m['uci_fit_pixels']:,}

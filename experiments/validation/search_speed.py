@@ -1,9 +1,9 @@
-"""`recognize` against the recognition of another revision of this repository (default 7db9abf~1, the
-20-step Adam search measured earlier): time per sequence and how often the returned φ is
+"""`recognize` against the recognition of another revision of this repository (for instance
+one with the former 20-step Adam search): time per sequence and how often the returned φ is
 within 1 nat of a dense search, on `bench_hmm`'s recognition workload (2 PHMMs of a 2x2 grid, batch
 70) for several seeds.
 
-    python experiments/validation/search_speed.py OUT [--revision 7db9abf~1] [--seeds 0,1,2] [--rounds 5]
+    python experiments/validation/search_speed.py OUT --revision REV [--seeds 0,1,2] [--rounds 5]
 
 The workloads (data and PHMMs, fitted here and written with `phmm_jax.save`) are the same for both
 revisions. Each side runs in its own process (the other revision's packages come from `git archive`),
@@ -87,7 +87,7 @@ def run_side(tree: Path, workload: Path, repeats: int) -> dict:
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
-    ap.add_argument("--revision", default="7db9abf~1", help="the other side (a git revision of this repository)")
+    ap.add_argument("--revision", required=True, help="the other side (a git revision of this repository)")
     ap.add_argument("--seeds", default="0,1,2", help="comma-separated workload seeds")
     ap.add_argument("--rounds", type=int, default=5, help="alternating process pairs per seed")
     ap.add_argument("--repeats", type=int, default=5, help="timed calls per process")

@@ -1,6 +1,6 @@
 """Render one long recording of a preset and write its pictures:
 
-    python -m experiments.data.video --preset quick --out /tmp/video
+    python -m experiments.data.video --preset quick --out runs/video
 
 writes contact_sheet.png (frames with the label overlay), recording.mp4 (or .gif) of the left view
 with the overlay, and metrics.json with the render speed (frames/s, both views with labels).
