@@ -118,7 +118,11 @@ def source_digest(package: str) -> str:
 
 
 def clear_source_digests() -> None:
-    """Forget the source digests of this process, so the next key reads the sources again (as a new process would)."""
+    """Forget the source digests of this process, so the next key reads the sources again (as a new process would).
+
+    Returns:
+        None.
+    """
     _DIGESTS.clear()
 
 

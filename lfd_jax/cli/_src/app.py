@@ -145,7 +145,12 @@ def _video_parser(subparsers) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """`lfd-jax` with its subcommands grasp, phmm {fit, recognize} and video."""
+    """The `lfd-jax` argument parser.
+
+    Returns:
+        The parser with its subcommands grasp, phmm {fit, recognize} and video; its errors are one
+        line and exit status 2.
+    """
     parser = OneLineParser(prog=PROG, description="lfd-jax on one's own data: grasps in photos, HMMs of "
                                                   "marker recordings, segmentation and tracking in video.")
     subparsers = parser.add_subparsers(dest="command", required=True, metavar="{grasp,phmm,video}",
@@ -162,7 +167,14 @@ def _one_line(err: BaseException) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run `lfd-jax` on `argv` (default: the command line); returns the exit status."""
+    """Run `lfd-jax`.
+
+    Args:
+        argv: the arguments after the program name (None: the command line).
+
+    Returns:
+        The exit status: 0 on success, 2 for bad input (one line on stderr: `lfd-jax: error: ...`).
+    """
     args = build_parser().parse_args(argv)
     try:
         module = importlib.import_module(f"lfd_jax.cli._src.{args.command}")
