@@ -5,7 +5,7 @@ trial resampled to a fixed number of frames.
 * markers: 10 points of the Nexus trajectories relative to the sternum marker STRN, in metres: per
   arm (R, L) the centroids of the shoulder, upper-arm, forearm and hand clusters (4 markers each)
   and the fingertip. The 10 calibration landmarks (GTH, LEP, MEP, SPR, SPU) are empty in dynamic
-  trials and not used; short gaps of the used markers are filled (`loaders.fill_gaps`).
+  trials and not used; short gaps of the used markers are filled (`lfd_jax.fill_gaps`).
 """
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ from typing import NamedTuple
 import numpy as np
 
 from experiments.config import progress
-from experiments.data import loaders, ue_adl
+import lfd_jax as loaders
+from experiments.data import ue_adl
 
 CLUSTERS = ("SHO", "UAR", "LAR", "HAN")
 MARKER_POINTS = tuple(f"{side}{c}" for side in "RL" for c in CLUSTERS + ("FTP",))
