@@ -9,7 +9,9 @@ STAMP := $(VENV)/.installed-$(shell sha1sum pyproject.toml | cut -c1-12)
 # so two workers on two cores take about 60 % of the serial time). The pytest processes use no
 # persistent compilation cache (tests/conftest.py says why); data caches are written atomically.
 # A crashed worker ends the run (no restart): a replaced worker can leave pytest-xdist waiting forever.
-PYTEST_ARGS ?= -n 2 --dist loadfile --max-worker-restart=0
+# --no-loadscope-reorder keeps the collection order, which tests/conftest.py sets heaviest files first
+# (xdist's default order, most tests per file first, left the minute-long one-test files for the end).
+PYTEST_ARGS ?= -n 2 --dist loadfile --no-loadscope-reorder --max-worker-restart=0
 DEMO_ARGS ?= --preset quick
 BENCH_ARGS ?= --preset quick
 

@@ -34,16 +34,56 @@ def assert_one_line_error(result: subprocess.CompletedProcess, *fragments: str) 
         assert fragment in lines[0], lines[0]
 
 
-@pytest.mark.parametrize("command", [(), ("grasp",), ("phmm",), ("phmm", "fit"), ("phmm", "recognize"), ("video",)])
-def test_help_of_every_subcommand(command):
-    result = lfd_jax(*command, "--help")
+# `python -m lfd_jax.cli ARGS` for several ARGS in one new process: each run as `-m` runs it (`runpy`,
+# `__main__`), its stdout, stderr and exit status kept apart. For the runs that end in the argument
+# parser (help, usage errors), which import nothing else: one Python start-up instead of one per run.
+_RUNS = """
+import contextlib, io, json, runpy, sys
+results = []
+for argv in json.loads(sys.argv[1]):
+    out, err, code = io.StringIO(), io.StringIO(), 0
+    sys.argv = [sys.argv[0], *argv]
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            runpy.run_module("lfd_jax.cli", run_name="__main__", alter_sys=True)
+        except SystemExit as end:
+            code = end.code if isinstance(end.code, int) else (0 if end.code is None else 1)
+    results.append((code, out.getvalue(), err.getvalue()))
+print(json.dumps(results))
+"""
+
+
+def lfd_jax_runs(*commands) -> list[subprocess.CompletedProcess]:
+    """`lfd_jax(*args)` for each argument tuple of `commands`, all in one new process (see `_RUNS`)."""
+    env = {**os.environ, "LFD_NO_PROGRESS": "1"}
+    argvs = [[str(a) for a in args] for args in commands]
+    run = subprocess.run([sys.executable, "-c", _RUNS, json.dumps(argvs)], cwd=ROOT, env=env, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    return [subprocess.CompletedProcess(["lfd-jax", *argv], code, out, err)
+            for argv, (code, out, err) in zip(argvs, json.loads(run.stdout))]
+
+
+HELP_COMMANDS = [(), ("grasp",), ("phmm",), ("phmm", "fit"), ("phmm", "recognize"), ("video",)]
+
+
+@pytest.fixture(scope="module")
+def parser_runs():
+    """{args: CompletedProcess} of every subcommand's --help and of two usage errors, in one process."""
+    commands = [(*command, "--help") for command in HELP_COMMANDS] + [("phmm", "fit"), ("teleport",)]
+    return dict(zip(commands, lfd_jax_runs(*commands)))
+
+
+@pytest.mark.parametrize("command", HELP_COMMANDS)
+def test_help_of_every_subcommand(command, parser_runs):
+    result = parser_runs[(*command, "--help")]
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith("usage: lfd-jax") and "--help" in result.stdout
 
 
-def test_usage_errors_are_one_line():
-    assert_one_line_error(lfd_jax("phmm", "fit"), "required")
-    assert_one_line_error(lfd_jax("teleport"), "invalid choice")
+def test_usage_errors_are_one_line(parser_runs):
+    assert_one_line_error(parser_runs[("phmm", "fit")], "required")
+    assert_one_line_error(parser_runs[("teleport",)], "invalid choice")
 
 
 def movement(rng, kind: int, n_frames: int) -> np.ndarray:

@@ -10,6 +10,7 @@ from scipy.ndimage import binary_erosion, gaussian_filter
 from hog_jax.video._src.phase_segmentation import CHUNK
 from hog_jax.video import (LogRatio, ObjectOptions, gradient_phase, object_masks, segment_objects, stereo_log_ratio,
     temporal_log_ratio)
+from tests.xla_level import with_default_fusion_emitters
 
 H, W, T = 48, 64, 4
 HALF = (10, 11)
@@ -328,7 +329,12 @@ def test_crop_phase_equals_the_full_frame_phase_at_the_border_and_inside(shape, 
     """`segment_objects` computes Psi only on crops around the windows (`hog_jax._phase.crop_phase`):
     the windows of `gradient_phase` of the whole frame, NaN outside the image, for windows over a
     corner, an edge, partly and wholly outside the image and near its centre; (5, 7) with a kernel
-    of radius 8 needs the symmetric padding reflected more than once."""
+    of radius 8 needs the symmetric padding reflected more than once. Compiled with XLA's default
+    fusion emitters (`tests.xla_level.with_default_fusion_emitters`), as users run it."""
+    with_default_fusion_emitters(_check_crop_phase, shape, blur, half)
+
+
+def _check_crop_phase(shape, blur, half):
     from hog_jax.video import crop_phase, gaussian_kernel
 
     image = gaussian_filter(np.random.default_rng(1).uniform(0, 255, shape), 0.7).astype(np.float32)
@@ -345,11 +351,16 @@ def test_crop_phase_equals_the_full_frame_phase_at_the_border_and_inside(shape, 
     np.testing.assert_allclose(np.nan_to_num(_wrap(crops - want)), 0.0, atol=1e-4)  # degrees: float32 round-off
 
 
-def test_segment_objects_cues_equal_the_full_frame_pieces_near_the_border(scene):
+def test_segment_objects_cues_equal_the_full_frame_pieces_near_the_border():
     """The cues `segment_objects` computes from crops of 8-bit frames are those of
     `temporal_log_ratio` and `stereo_log_ratio` on `gradient_phase` of the whole frames, for
-    windows over the image border (the right view's partly outside) and one inside."""
-    left, right, *_ = scene
+    windows over the image border (the right view's partly outside) and one inside. Compiled with
+    XLA's default fusion emitters (`tests.xla_level.with_default_fusion_emitters`), as users run it."""
+    with_default_fusion_emitters(_check_cues_near_the_border)
+
+
+def _check_cues_near_the_border():
+    left, right, *_ = _scene()
     u8 = lambda a: np.clip(a, 0, 255).astype(np.uint8)
     hand_l = np.array([[1, 2], [3, 5], [H - 2, W - 4], [H // 2, W // 2]])
     hand_r = hand_l - np.array([0, DISPARITY_OBJ])
