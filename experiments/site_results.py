@@ -256,7 +256,7 @@ def provenance(run: Run) -> str:
                       f"- machine: {machine_of(run)}"])
 
 
-# A tracker's reference ("(issue 21)", "of issue 18") means nothing to a reader of the docs.
+# An issue tracker's reference ("(issue N)", "of issue N") means nothing to a reader of the docs.
 _ISSUE = re.compile(r"\s*\((?:see )?issues? \d+(?:, \d+)*(?:, [^)]*)?\)|\s+(?:of|in|from|by) issues? \d+|\bissues? \d+'s\s*")
 # Digits runs of 7 or more read like commit hashes to a reader (and to a check for them): print such
 # numbers in scientific notation (decimals) or with thousands separators (integers), same value.
