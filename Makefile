@@ -39,6 +39,32 @@ bench: $(STAMP)
 		echo "== $$m"; $(PY) -m "$$m" $(BENCH_ARGS); \
 	done
 
+# `make peers`: a second environment, .venv-peers, for the peers whose pins clash with ours (MediaPipe
+# Hands), so that one process can time ours, OpenCV and MediaPipe side by side
+# (experiments/bench/bench_video_realtime.py). MediaPipe 0.10.21 is the last release whose wheel carries
+# the legacy `mediapipe.solutions.hands` graph with its palm-detection and hand-landmark .tflite models
+# (0.10.30 on ship neither; their Tasks API downloads a .task file at run time). It declares numpy<2 and
+# opencv-contrib-python; it is installed without its dependencies on top of ours (numpy 2, the same
+# opencv-python-headless, whose cv2 has MOG2 and KNN), every version pinned to the one in .venv.
+PEERS_VENV := .venv-peers
+PEERS_PY := $(PEERS_VENV)/bin/python
+MEDIAPIPE_VERSION ?= 0.10.21
+PEERS_STAMP := $(PEERS_VENV)/.installed-$(shell cat pyproject.toml Makefile | sha1sum | cut -c1-12)
+
+.PHONY: peers
+peers: $(PEERS_STAMP)
+
+$(PEERS_STAMP): pyproject.toml Makefile
+	test -x $(PY) || $(MAKE) install
+	test -x $(PEERS_PY) || $(PYTHON) -m venv $(PEERS_VENV)
+	$(PEERS_PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip freeze --exclude-editable | grep -v -i '^mediapipe' > $(PEERS_VENV)/constraints.txt
+	$(PEERS_PY) -m pip install --quiet -c $(PEERS_VENV)/constraints.txt -e . absl-py attrs flatbuffers 'protobuf>=4.25.3,<5'
+	$(PEERS_PY) -m pip install --quiet --no-deps mediapipe==$(MEDIAPIPE_VERSION)
+	$(PEERS_PY) -c "import mediapipe as mp; mp.solutions.hands.Hands(static_image_mode=True).close(); print('mediapipe', mp.__version__, 'hands ok')"
+	rm -f $(PEERS_VENV)/.installed-*
+	touch $@
+
 # The documentation site (MkDocs, Material theme, API reference from the docstrings) into site/;
 # --strict turns every warning into an error.
 .PHONY: docs results

@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hog_jax import gmm_log_prob
 from hog_jax.video import (BICOptions, fit_gmm_bic, fit_person_background_models, gmm_n_params,
     region_log_likelihoods)
 
@@ -96,6 +97,22 @@ def scene_fit():
     return frames, masks, fit_person_background_models(jax.random.key(0), frames, masks, FIT, max_pixels=N)
 
 
+def test_ghost_pixels_teach_neither_model():
+    """Moving pixels of the background's colour (the wall a seated person uncovers) teach the person
+    under the TR's rule and are dropped by the ghost rule: the person GMM then scores the background's
+    colours below the person's own."""
+    frames, masks = _scene()
+    ghost = masks.copy()
+    ghost[:, :, 20:32] = True  # the background beside the person counted as moving too
+    wall = frames[0, 10, 34].astype(np.float32)[None] / 255.0  # a background colour (third stripe)
+    clothing = frames[0, 10, 10].astype(np.float32)[None] / 255.0
+    with_ghosts = fit_person_background_models(jax.random.key(0), frames, ghost, FIT, max_pixels=N, ghost_quantile=None)
+    without = fit_person_background_models(jax.random.key(0), frames, ghost, FIT, max_pixels=N)
+    person_ll = lambda fit, x: float(gmm_log_prob(fit.models.person, x)[0])  # noqa: E731
+    assert person_ll(with_ghosts, wall) > person_ll(with_ghosts, clothing) - 10.0  # learnt the wall as person
+    assert person_ll(without, wall) < person_ll(without, clothing) - 20.0
+
+
 def test_person_and_background_models_from_frames(scene_fit):
     frames, masks, fit = scene_fit
     assert masks.sum() >= N and (~masks).sum() >= N
@@ -137,6 +154,8 @@ BAD_CALLS = {
     "person_masks: 0 person": lambda: fit_person_background_models(jax.random.key(0), BAD, BAD[..., 0] > 0),
     "space: expected one of": lambda: fit_person_background_models(jax.random.key(0), BAD, BAD[..., 0] > 0,
                                                                    space="hsv"),
+    "ghost_quantile: expected a quantile": lambda: fit_person_background_models(jax.random.key(0), BAD,
+                                                                               BAD[..., 0] > 0, ghost_quantile=1.0),
     "max_pixels: must be >= 1": lambda: fit_person_background_models(jax.random.key(0), BAD, BAD[..., 0] > 0,
                                                                      max_pixels=0),
 }

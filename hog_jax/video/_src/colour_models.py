@@ -310,13 +310,21 @@ def _check_video(frames, name: str) -> np.ndarray:
 def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T H W 3"],
                                  person_masks: Bool[ArrayLike, "T H W"], options: BICOptions = BICOptions(), *,
                                  max_pixels: int = 20000, space: str = "rgb",
-                                 ignore: Bool[ArrayLike, "T H W"] | None = None) -> ColourFit:
+                                 ignore: Bool[ArrayLike, "T H W"] | None = None,
+                                 ghost_quantile: float | None = 0.1) -> ColourFit:
     """The person's and the background's colour GMMs, each sized by BIC (LEVELSET TR §3.4, eq. 8).
 
     The TR's protocol: the frames after the person has entered, with the person's pixels (the moving
     regions, from the background model), give a person GMM and a background GMM (`fit_gmm_bic`).
     Each region is subsampled without replacement to n = min(max_pixels, person pixels, background
     pixels) pixels, the same number for both so that one compiled EM serves both.
+
+    The background is fitted first. On real video the person is often in view from the first frame,
+    so the background model has learnt the person where they sat and reports the wall they uncover as
+    moving (a *ghost*); taught as the person, the wall's colour would stay "person" for good. So a
+    moving pixel whose colour the background GMM explains as well as the background's own pixels (its
+    log-density at least the `ghost_quantile` quantile of theirs) teaches neither model. The person is
+    then fitted on min(n, the pixels left) of the rest.
 
     Args:
         key: a `jax.random` key (the subsampling and the fits).
@@ -328,6 +336,8 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
             or "chroma" ((Cr, Cb) / 255, as the skin model). Densities of different spaces are not
             comparable: regions that compete in eq. 7 should share one space.
         ignore: (T, H, W) bool, pixels that teach neither model (e.g. the skin, which has its own).
+        ghost_quantile: in (0, 1), the ghost rule's quantile, or None for the TR's rule (every moving
+            pixel teaches the person).
 
     Returns:
         A `ColourFit`: the structure, the models and both BIC tables.
@@ -335,8 +345,8 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
     Raises:
         ValueError: naming the argument for a key that is not a `jax.random` key, bad frames, masks
             of another shape or with values other than 0/1, a region too small for BIC over the
-            candidates (`person_masks`), options that are not a `BICOptions`, max_pixels < 1 or an
-            unknown space.
+            candidates (`person_masks`), options that are not a `BICOptions`, max_pixels < 1, an
+            unknown space or a ghost_quantile outside (0, 1).
     """
     check_key(key, "key")
     arr = _check_video(frames, "frames")
@@ -359,13 +369,24 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
         counts = ", ".join(f"{len(r)} {name}" for r, name in zip(regions, REGIONS))
         raise ValueError(f"person_masks: {counts} pixels; BIC over up to {cands[-1]} components needs more than "
                          f"{need} pixels in each region")
+    if ghost_quantile is not None:
+        if not 0.0 < check_real(ghost_quantile, "ghost_quantile") < 1.0:
+            raise ValueError(f"ghost_quantile: expected a quantile in (0, 1) or None, got {ghost_quantile}")
     k_sample, k_person, k_background = jax.random.split(key, 3)
     rng = _numpy_rng(k_sample)
-    fits = []
-    for region, k_fit in zip(regions, (k_person, k_background)):
-        x = np.asarray(_features(flat[rng.choice(region, n, replace=False)], space))
-        fits.append(_fit_bic(k_fit, x, cands, o.n_iter, o.n_init, o.reg, o.param_count, "person_masks"))
-    (person, p_scores), (background, b_scores) = fits
+    features = lambda index: np.asarray(_features(flat[index], space))  # noqa: E731
+    fit = lambda k, x: _fit_bic(k, x, cands, o.n_iter, o.n_init, o.reg, o.param_count, "person_masks")  # noqa: E731
+    seen = features(rng.choice(regions[1], n, replace=False))
+    background, b_scores = fit(k_background, seen)
+    person_region = regions[0]
+    if ghost_quantile is not None:
+        floor = np.quantile(np.asarray(gmm_log_prob(background, seen)), ghost_quantile)
+        explained = np.asarray(gmm_log_prob(background, features(person_region))) >= floor
+        person_region = person_region[~explained]
+        if len(person_region) <= need:
+            raise ValueError(f"person_masks: {len(person_region)} moving pixels the background does not explain; "
+                             f"BIC over up to {cands[-1]} components needs more than {need}")
+    person, p_scores = fit(k_person, features(rng.choice(person_region, min(n, len(person_region)), replace=False)))
     structure = ColourStructure(int(person.log_weights.shape[0]), int(background.log_weights.shape[0]), space)
     return ColourFit(structure, ColourModels(person, background), p_scores, b_scores)
 
