@@ -311,7 +311,7 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
                                  person_masks: Bool[ArrayLike, "T H W"], options: BICOptions = BICOptions(), *,
                                  max_pixels: int = 20000, space: str = "rgb",
                                  ignore: Bool[ArrayLike, "T H W"] | None = None,
-                                 ghost_quantile: float | None = 0.1) -> ColourFit:
+                                 ghost_quantile: float | None = 0.01) -> ColourFit:
     """The person's and the background's colour GMMs, each sized by BIC (LEVELSET TR §3.4, eq. 8).
 
     The TR's protocol: the frames after the person has entered, with the person's pixels (the moving
@@ -361,6 +361,9 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
     cands = o.candidates
     n_max = check_int(max_pixels, "max_pixels", min_value=1)
     check_choice(space, "space", tuple(_SPACES))
+    if ghost_quantile is not None:
+        if not 0.0 < check_real(ghost_quantile, "ghost_quantile") < 1.0:
+            raise ValueError(f"ghost_quantile: expected a quantile in (0, 1) or None, got {ghost_quantile}")
     flat = arr.reshape(-1, 3)
     regions = [np.flatnonzero((masks & keep).reshape(-1)), np.flatnonzero((~masks & keep).reshape(-1))]
     n = min(n_max, *(len(r) for r in regions))
@@ -369,9 +372,6 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
         counts = ", ".join(f"{len(r)} {name}" for r, name in zip(regions, REGIONS))
         raise ValueError(f"person_masks: {counts} pixels; BIC over up to {cands[-1]} components needs more than "
                          f"{need} pixels in each region")
-    if ghost_quantile is not None:
-        if not 0.0 < check_real(ghost_quantile, "ghost_quantile") < 1.0:
-            raise ValueError(f"ghost_quantile: expected a quantile in (0, 1) or None, got {ghost_quantile}")
     k_sample, k_person, k_background = jax.random.split(key, 3)
     rng = _numpy_rng(k_sample)
     features = lambda index: np.asarray(_features(flat[index], space))  # noqa: E731
