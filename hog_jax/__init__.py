@@ -9,7 +9,9 @@ Public API (shapes: B images, H x W pixels, D feature length, N database points,
 
 * Segmentation: `fit_skin_model`, `segment` -> `Segmentation`, `adapt_skin_model`,
   `segment_adapted`, `crop_components`; mixtures `GMM`, `fit_gmm`, `gmm_log_prob`; persistence
-  `save_skin_model` / `load_skin_model`.
+  `save_skin_model` / `load_skin_model`; one person's skin: `adapt_to_skin`, `adapt_to_face`;
+  skin-coloured non-skin: `SkinRules`, `fit_skin_rules`, `skin_rule_mask`, `static_skin`; the
+  model's colour (`skin_features`: (Cr, Cb), or with luma (Cr, Cb, Y)).
 * HOG: `HOGConfig`, `hog(images (B, H, W))` -> (B, D), `hog_dim`.
 * Search: `exact_search`, `build_index` -> `LSHIndex`, `query` -> `LSHResult`, `tune(options=
   TuneOptions(...))` -> `TuneResult`, `recall_at_k`; `mesh=` splits the database over devices.
@@ -42,14 +44,17 @@ from hog_jax._src.metric import LinearMetric, apply_metric, fit_metric
 from hog_jax._src.search import build_index, exact_search, query
 from hog_jax._src.segment import (GMM, Segmentation, SkinModel, SkinStructure, crop_components, fit_gmm,
                                   fit_skin_model, gmm_log_prob, load_skin_model, median3, rgb_to_chroma,
-                                  save_skin_model, segment, skin_log_ratio)
-from hog_jax._src.skin_adapt import adapt_skin_model, segment_adapted
+                                  save_skin_model, segment, skin_features, skin_log_ratio)
+from hog_jax._src.skin_adapt import adapt_skin_model, adapt_to_face, adapt_to_skin, segment_adapted
+from hog_jax._src.skin_rules import SkinRules, fit_skin_rules, skin_rule_mask, static_skin
 
 __all__ = [
     "GMM", "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "LinearMetric", "Prediction", "Segmentation",
-    "SkinModel", "SkinStructure", "TuneOptions", "TuneResult", "adapt_skin_model", "apply_metric", "build_index",
+    "SkinModel", "SkinRules", "SkinStructure", "TuneOptions", "TuneResult", "adapt_skin_model", "adapt_to_face",
+    "adapt_to_skin", "apply_metric", "build_index",
     "crop_components", "euler_to_quat", "exact_search", "feature_limit", "fit", "fit_gmm", "fit_metric",
-    "fit_skin_model", "gmm_log_prob", "hog", "hog_dim", "intra_class_sigma", "load_skin_model", "mean_rotation",
+    "fit_skin_model", "fit_skin_rules", "gmm_log_prob", "hog", "hog_dim", "intra_class_sigma", "load_skin_model",
+    "mean_rotation",
     "median3", "predict", "quat_to_euler", "query", "recall_at_k", "rgb_to_chroma", "save_skin_model", "segment",
-    "segment_adapted", "skin_log_ratio", "tune", "vote",
+    "segment_adapted", "skin_features", "skin_log_ratio", "skin_rule_mask", "static_skin", "tune", "vote",
 ]

@@ -107,7 +107,7 @@ def test_ghost_pixels_teach_neither_model():
     wall = frames[0, 10, 34].astype(np.float32)[None] / 255.0  # a background colour (third stripe)
     clothing = frames[0, 10, 10].astype(np.float32)[None] / 255.0
     with_ghosts = fit_person_background_models(jax.random.key(0), frames, ghost, FIT, max_pixels=N, ghost_quantile=None)
-    without = fit_person_background_models(jax.random.key(0), frames, ghost, FIT, max_pixels=N)
+    without = fit_person_background_models(jax.random.key(0), frames, ghost, FIT, max_pixels=N, ghost_quantile=0.01)
     person_ll = lambda fit, x: float(gmm_log_prob(fit.models.person, x)[0])  # noqa: E731
     assert person_ll(with_ghosts, wall) > person_ll(with_ghosts, clothing) - 10.0  # learnt the wall as person
     assert person_ll(without, wall) < person_ll(without, clothing) - 20.0

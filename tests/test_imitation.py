@@ -29,7 +29,7 @@ DEMO = Demo("point", person=0, seed=7, objects_xy=np.array([[-0.24, -0.32], [0.1
 def loop():
     sim.setup_rendering()
     settings = CFG.video_settings()
-    _, rgb_skin = st.skin_models(CFG, settings)
+    rgb_skin = st.skin_models(CFG, settings)
     phmms = st.phmm_models(CFG, settings)
     rec = st.render_demo(settings, DEMO)
     tracked = pl.track(CFG, settings, DEMO, rec, rgb_skin)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import hog_jax.video as hv
+from tests.video_scene import PERSON_RGB, SKIN_RGB, toy_skin_model
 
 H, W, T, START, SHIFT = 24, 32, 16, 10, 2
-SKIN_RGB, PERSON_RGB = np.array([200.0, 140.0, 110.0]), np.array([40.0, 60.0, 170.0])
 CAMERA = hv.StereoCamera(focal_px=30.0, baseline_m=0.12, width=W, height=H)
 
 
@@ -36,8 +36,7 @@ def scene(seed=0):
 
 @pytest.fixture(scope="module")
 def skin():
-    rng = np.random.default_rng(1)
-    return hv.fit_skin(jax.random.key(0), np.clip(SKIN_RGB + rng.normal(0, 4, (400, 3)), 0, 255))
+    return toy_skin_model()
 
 
 def test_camera_from_matrices_inverts_camera_matrices():

@@ -23,7 +23,7 @@ IOU_FLOORS = {"iou_hand": 0.6, "iou_face": 0.6, "iou_person": 0.9, "iou_hand_lev
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("video_segmentation")
     metrics = run_experiment("experiments.video_segmentation", ["--preset", "quick", "--out", str(out), "--max-clips", "1",
-                                                                  "--cdnet-dir", str(out / "absent")], out)
+                                                                  "--real-data", str(out / "absent")], out)
     return out, metrics
 
 

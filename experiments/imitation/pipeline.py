@@ -40,7 +40,7 @@ TRACK_PACKAGES: tuple[str, ...] = DEMO_PACKAGES + (
 _TRACKS = Cache("imitation_tracks", packages=TRACK_PACKAGES)
 
 
-def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> Tracked:
+def track(cfg: Config, settings, demo: Demo, rec: video.Recording, skin_model) -> Tracked:
     """The recording through the video front end (`hog_jax.video.front_end`; cached per
     settings, demonstration, skin model, front-end settings and the source of `TRACK_PACKAGES`; `rec`,
     a function of the settings and the demonstration, stays out of the key)."""
@@ -50,7 +50,7 @@ def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> 
     def run() -> Tracked:
         start = video.segmentation_start(settings)
         camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
-        out = front_end(jax.random.key(cfg.seed + demo.seed % 100_000), rgb_skin, rec.left, rec.right, start, camera,
+        out = front_end(jax.random.key(cfg.seed + demo.seed % 100_000), skin_model, rec.left, rec.right, start, camera,
                         VideoOptions(background=BackgroundOptions.for_fps(settings.fps), coarse_scale=cfg.coarse_scale),
                         HandFaceOptions(min_area=min_blob_area(cfg, rec.left.shape[1:3]),
                                         tracking=TrackOptions(min_init=3)), pad_multiple=cfg.pad_frames)
@@ -62,7 +62,7 @@ def track(cfg: Config, settings, demo: Demo, rec: video.Recording, rgb_skin) -> 
         return Tracked(diff.astype(np.float32), found, hand_l.astype(np.float32), int(start))
 
     fields = {k: getattr(cfg, k) for k in ("seed", "pad_frames", "coarse_scale", "min_blob_px_160")}
-    return _TRACKS.get(run, settings=settings, demo=demo, rgb_skin=rgb_skin, cfg=fields)
+    return _TRACKS.get(run, settings=settings, demo=demo, skin_model=skin_model, cfg=fields)
 
 
 def min_blob_area(cfg: Config, shape: tuple[int, int]) -> int:

@@ -24,12 +24,11 @@ DISTURBED_M = 0.05  # another object pushed farther than this (x-y) by the robot
 
 
 class Models(NamedTuple):
-    """What the loop runs with: the skin models (chroma for the hand crop, RGB for the front end), the
+    """What the loop runs with: the skin model (the hand crop and the front end), the
     grasp recogniser, the PHMMs (`KINDS` order, then the reach PHMM) and the settings chosen on validation
     demonstrations."""
 
-    chroma_skin: Any
-    rgb_skin: Any
+    skin: Any
     grasp: Any
     phmms: list
     offset: np.ndarray
@@ -40,11 +39,10 @@ class Models(NamedTuple):
 
 
 def skin_models(cfg: Config, settings):
-    """The video study's skin models from the clips of the last `n_skin_persons` (no demonstrator)."""
+    """The video study's skin model from the clips of the last `n_skin_persons` (no demonstrator)."""
     from experiments.data.video import fit_skin_models
 
-    chroma, rgb, _ = fit_skin_models(settings, range(cfg.demonstrators, cfg.n_persons), cfg.seed)
-    return chroma, rgb
+    return fit_skin_models(settings, range(cfg.demonstrators, cfg.n_persons), cfg.seed)[0]
 
 
 # `pipeline.train_phmms` runs the demonstrations' kinematics, `lfd_jax.imitation` and `phmm_jax`; the pipeline
@@ -59,12 +57,12 @@ def phmm_models(cfg: Config, settings) -> list:
     return _PHMMS.get(lambda: pl.train_phmms(cfg, settings, cfg.seed + _TRAIN_SEED), cfg=fields, settings=settings)
 
 
-def tracked_demo(cfg, settings, demo, rgb_skin):
+def tracked_demo(cfg, settings, demo, skin):
     rec = render_demo(settings, demo, progress=None)
-    return rec, pl.track(cfg, settings, demo, rec, rgb_skin)
+    return rec, pl.track(cfg, settings, demo, rec, skin)
 
 
-def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray, float, float, dict]:
+def validation_stage(cfg: Config, settings, phmms, skin) -> tuple[np.ndarray, float, float, dict]:
     """The tracker's offset (median of tracked - kinematic features), the PHMMs' observation noise and
     the detector's threshold, chosen on `n_validation` demonstrations of their own seed by the number of
     right actions plus right targets (ties: the first in the config's order)."""
@@ -72,7 +70,7 @@ def validation_stage(cfg: Config, settings, phmms, rgb_skin) -> tuple[np.ndarray
     actors = pl.Actors(settings)
     tracked, gaps = [], []
     for demo in progress(demos, desc="validation demonstrations"):
-        rec, t = tracked_demo(cfg, settings, demo, rgb_skin)
+        rec, t = tracked_demo(cfg, settings, demo, skin)
         x, visible = pl.kinematic_features(actors(demo), demo_track(actors(demo), demo, settings))
         both = im.plausible(t, cfg.median_frames) & visible[: len(t.found)]
         gaps.append(t.diff[both] - x[: len(t.found)][both])
@@ -101,20 +99,20 @@ def prepare(cfg: Config, settings) -> tuple[Models, dict, dict]:
     """Every model of the loop and the validation choices: (Models, metrics, stage times s)."""
     times = {}
     t0 = time.perf_counter()
-    chroma, rgb = skin_models(cfg, settings)
+    skin = skin_models(cfg, settings)
     times["skin_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    grasp = grasp_recogniser(cfg, settings, chroma)
+    grasp = grasp_recogniser(cfg, settings, skin)
     times["grasp_database_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     phmms = phmm_models(cfg, settings)
     times["phmm_training_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    offset, sigma, thr, metrics = validation_stage(cfg, settings, phmms, rgb)
+    offset, sigma, thr, metrics = validation_stage(cfg, settings, phmms, skin)
     times["validation_s"] = time.perf_counter() - t0
     online = im.recognizer(phmms, sigma, thr, cfg.online_window)
     reach = P.with_observation_noise(phmms[pl.REACH], sigma ** 2)
-    return Models(chroma, rgb, grasp, phmms, offset, sigma, thr, online, reach), metrics, times
+    return Models(skin, grasp, phmms, offset, sigma, thr, online, reach), metrics, times
 
 
 # ------------------------------------------------------------------------------------------ robot
@@ -163,10 +161,10 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     rec = render_demo(settings, demo, progress=None)
     times["render_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    tracked = pl.track(cfg, settings, demo, rec, models.rgb_skin)
+    tracked = pl.track(cfg, settings, demo, rec, models.skin)
     times["tracking_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    grasp = grasp_function(cfg, models.grasp, models.chroma_skin, rec, tracked.hand_rc, settings)
+    grasp = grasp_function(cfg, models.grasp, models.skin, rec, tracked.hand_rc, settings)
     r = im.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                           grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach,
                           scene=scene_reader(cfg, rec, tracked), area=pl.AREA)

@@ -48,7 +48,7 @@ CLIP_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + (
 _CLIPS = Cache("lfd_clip_features", packages=CLIP_PACKAGES)
 
 
-def clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple[int, int, int],
+def clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tuple[int, int, int],
                   script) -> tuple[dict[str, FrameFeatures], bool]:
     """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found): the
     clip is cut after its put-down (the front end is causal), run through `recording_objects`; a clip
@@ -56,12 +56,12 @@ def clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple
     under `cache_dir("lfd_clip_features")` by the feature settings, the video settings (less the long
     recordings'), the spec, the clip, its script, the skin model and the source of `CLIP_PACKAGES`."""
     video_fields = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("n_scripts", "script_oacs")}
-    return _CLIPS.get(lambda: _clip_features(cfg, settings, rgb_skin, spec, key, script),
+    return _CLIPS.get(lambda: _clip_features(cfg, settings, skin_model, spec, key, script),
                       cfg={k: getattr(cfg, k) for k in _FEATURE_FIELDS}, settings=video_fields, spec=spec,
-                      clip=tuple(key), script=script, rgb_skin=rgb_skin)
+                      clip=tuple(key), script=script, skin_model=skin_model)
 
 
-def _clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tuple[int, int, int],
+def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tuple[int, int, int],
                    script) -> tuple[dict[str, FrameFeatures], bool]:
     """`clip_features`, computed."""
     rec = video.render_recording(settings, script, progress=progress)
@@ -72,7 +72,7 @@ def _clip_features(cfg: Config, settings, rgb_skin, spec: FeatureSpec, key: tupl
     half = (round(cfg.half_window * cfg.scale(settings)),) * 2
     renderer = pick(renderer_features(rec, video.grey(rec.left), half, spec))
     person, cls, rep = key
-    out = recording_objects(cfg, settings, rec, rgb_skin, 10_000 + 1000 * person + 100 * cls + rep, peer=False)
+    out = recording_objects(cfg, settings, rec, skin_model, 10_000 + 1000 * person + 100 * cls + rep, peer=False)
     pipeline = (pick(pipeline_features(out, spec)) if out is not None
                 else FrameFeatures(*(np.zeros_like(x) for x in renderer)))
     return {"pipeline": pipeline, "renderer": renderer}, out is not None
@@ -86,7 +86,7 @@ class ClipSet(NamedTuple):
     n_clips: int
 
 
-def clip_stage(cfg: Config, settings, rgb_skin, spec: FeatureSpec) -> ClipSet:
+def clip_stage(cfg: Config, settings, skin_model, spec: FeatureSpec) -> ClipSet:
     """Every clip of the clip persons (`cfg.clip_repetitions` per person and OAC) through the pipeline,
     the first repetition of every person and OAC first (a clip's features do not depend on the order)."""
     persons = cfg.clip_persons(settings)
@@ -94,7 +94,7 @@ def clip_stage(cfg: Config, settings, rgb_skin, spec: FeatureSpec) -> ClipSet:
                    if p in persons and r < cfg.clip_repetitions), key=lambda job: (job[2], job[0], job[1]))
     feats, meta, lost = {s: [] for s in SOURCES}, [], 0
     for p, c, r, script in progress(jobs, desc="OAC clips through the front end"):
-        f, found = clip_features(cfg, settings, rgb_skin, spec, (p, c, r), script)
+        f, found = clip_features(cfg, settings, skin_model, spec, (p, c, r), script)
         lost += not found
         for s in SOURCES:
             feats[s].append(f[s])

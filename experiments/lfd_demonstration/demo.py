@@ -19,10 +19,10 @@ def demo_stage(cfg) -> StageResult:
     start = time.perf_counter()
     lcfg = dataclasses.replace(Config(**PRESETS["quick"]), seed=int(cfg.seed), script_oacs=2)
     settings = lcfg.video_settings()
-    _, rgb_skin, _ = video.fit_skin_models(settings, range(settings.n_persons - lcfg.n_skin_persons, settings.n_persons),
+    skin_model, _ = video.fit_skin_models(settings, range(settings.n_persons - lcfg.n_skin_persons, settings.n_persons),
                                            lcfg.seed)
-    clips = clip_stage(lcfg, settings, rgb_skin, FeatureSpec())
-    metrics, result = object_stage(lcfg, settings, rgb_skin, clips.data["pipeline"])
+    clips = clip_stage(lcfg, settings, skin_model, FeatureSpec())
+    metrics, result = object_stage(lcfg, settings, skin_model, clips.data["pipeline"])
     keys = ("object_mask_iou", "object_mask_iou_peer", "events_true", "events_matched", "events_missed",
             "events_spurious", "pickup_error_frames", "putdown_error_frames", "oac_correct_rate",
             "true_periods_oac_correct_rate", "true_periods_z_seen", "true_periods_z_unseen")

@@ -15,7 +15,7 @@ from hog_jax.video import (HAND, PERSON, SKIN, BackgroundOptions, HandFaceOption
                            VideoOptions, front_end, stereo_camera_from_matrices)
 
 
-def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bool = True) -> dict | None:
+def recording_objects(cfg: Config, settings, rec, skin_model, index: int, peer: bool = True) -> dict | None:
     """One long recording through the front end, then the object in the hand's window per frame, ours
     and the peer's: {"ours" / "peer": (masks (T, h, w), found (T,)), "truth", "tracked", "decided",
     "labels" and "positions" of the front end, ...} ("peer" None without `peer`: the clips need only
@@ -24,7 +24,7 @@ def recording_objects(cfg: Config, settings, rec, rgb_skin, index: int, peer: bo
     half = (round(cfg.half_window * scale),) * 2
     start = video.segmentation_start(settings)
     camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
-    out = front_end(jax.random.key(cfg.seed + index), rgb_skin, rec.left, rec.right, start, camera,
+    out = front_end(jax.random.key(cfg.seed + index), skin_model, rec.left, rec.right, start, camera,
                     VideoOptions(background=BackgroundOptions.for_fps(settings.fps)),
                     HandFaceOptions(tracking=TrackOptions(min_init=3)), pad_multiple=cfg.pad_frames)
     labels, positions, hand_l, hand_r, tracked = out.labels, out.positions, out.hand_left, out.hand_right, out.tracked

@@ -59,7 +59,7 @@ def recording_labels(cfg: Config, settings, clips, rec, out: dict, periods, matc
             "true": label(rec.pickup_frames, np.asarray(rec.putdown_frames) + 1), "true_truth": truth}
 
 
-def object_stage(cfg: Config, settings, rgb_skin, clips=None,
+def object_stage(cfg: Config, settings, skin_model, clips=None,
                  spec: FeatureSpec = FeatureSpec()) -> tuple[dict, StageResult]:
     """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events; with
     `clips` (the clips' pipeline features, `OACData`), the CHCRF label and Z(x) of each OAC found."""
@@ -70,7 +70,7 @@ def object_stage(cfg: Config, settings, rgb_skin, clips=None,
     windows = {"ours": [], "peer": [], "truth": [], "depth": [], "rotation": []}  # for the failure cases
     for i, script in enumerate(progress(video.long_scripts(settings), desc="long recordings")):
         rec = video.render_recording(settings, script, progress=progress)
-        out = recording_objects(cfg, settings, rec, rgb_skin, i)
+        out = recording_objects(cfg, settings, rec, skin_model, i)
         row = {"person": int(script.person), "frames": int(len(rec.left)), "true_events": int(len(rec.pickup_frames)),
                "hand_found": out is not None}
         rows.append(row)
@@ -121,13 +121,13 @@ def main(argv=None) -> dict:
     start_s = time.perf_counter()
     settings = cfg.video_settings()
     skin_persons = range(settings.n_persons - cfg.n_skin_persons, settings.n_persons)
-    _, rgb_skin, skin_metrics = video.fit_skin_models(settings, skin_persons, cfg.seed)
+    skin_model, skin_metrics = video.fit_skin_models(settings, skin_persons, cfg.seed)
     spec = FeatureSpec()
     clip_metrics, clip_set = {}, None
     if cfg.clip_repetitions:
-        clip_set = clip_stage(cfg, settings, rgb_skin, spec)
+        clip_set = clip_stage(cfg, settings, skin_model, spec)
         clip_metrics = table_metrics(tables(cfg, clip_set), clip_set)
-    metrics, result = object_stage(cfg, settings, rgb_skin, clip_set and clip_set.data["pipeline"], spec)
+    metrics, result = object_stage(cfg, settings, skin_model, clip_set and clip_set.data["pipeline"], spec)
     metrics.update(clip_metrics)
     runtime = time.perf_counter() - start_s
     written = run.write_stages([result], header=report(cfg, settings, metrics, runtime), runtime_s=runtime,

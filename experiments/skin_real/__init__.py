@@ -11,6 +11,15 @@ pixels and the mean per photo) and the rate of photos whose largest skin compone
 (IoU >= 0.5 with the true mask). Without the data folder the study exits with a one-line message.
 
 Outputs: metrics.json, report.md, contact_sheet.png, precision_recall.png, per_photo.csv.
+
+    python -m experiments.skin_real --data ../shared/data --preset model_quick|model --out DIR
+
+The one-model study (`one_model.py`): skin / non-skin GMMs fitted on UCI pixels and the HGR photos of
+some persons, the colour space ((Cr, Cb) or (Cr, Cb, Y)), threshold, rules for skin-coloured non-skin
+and the relevance of the adaptation to each image's most confident skin blob chosen on other persons
+(+ held-out UCI pixels), reported on the remaining persons, gtea_grasps (hand boxes) and the reach
+clip (contact sheet), beside the YCrCb rule. Outputs: metrics.json, report.md, skin_model.npz,
+reach_sheet.png, gtea_sheet.png.
 """
 from experiments.skin_real.config import PRESETS, Config
 from experiments.skin_real.stages import main

@@ -95,3 +95,88 @@ def pad_photos(photos: list[Photo], shape: tuple[int, int]) -> PhotoBatch:
              & (np.arange(W)[None, None, :] < sizes[:, 1, None, None]))
     truth = np.stack([p.truth[r][:, c] for p, r, c in zip(photos, rows, cols)]) & valid
     return PhotoBatch(rgb, rows, cols, valid, truth, sizes)
+
+
+GTEA_DIR, REACH_CLIP = "gtea_grasps", "reach_grasp/teaser_movement.gif"
+
+
+def person_of(name: str) -> str:
+    """The HGR person id of a photo's base name (`..._id05_2` -> `id05`); '' when there is none."""
+    parts = [p for p in name.split("_") if p.startswith("id") and p[2:].isdigit()]
+    return parts[0] if parts else ""
+
+
+def hgr_split(names: list[str], fit_ids: tuple[str, ...], validation_ids: tuple[str, ...]) -> dict[str, list[str]]:
+    """The HGR photos split by person: {"fit": ..., "validation": ..., "test": the other persons}."""
+    split = {"fit": [], "validation": [], "test": []}
+    for name in names:
+        person = person_of(name)
+        split["fit" if person in fit_ids else "validation" if person in validation_ids else "test"].append(name)
+    return split
+
+
+def scaled(rgb: np.ndarray, scale: float, masks: tuple[np.ndarray, ...] = ()) -> tuple[np.ndarray, ...]:
+    """An RGB image resized by `scale` (area averaging) and bool masks with it (nearest); scale 1 keeps them."""
+    if scale == 1.0:
+        return (rgb, *masks)
+    h, w = rgb.shape[:2]
+    size = (max(1, round(w * scale)), max(1, round(h * scale)))
+    return (cv2.resize(rgb, size, interpolation=cv2.INTER_AREA),
+            *(cv2.resize(m.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0 for m in masks))
+
+
+class GteaFrame(NamedTuple):
+    """One egocentric frame: rgb (h, w, 3) float32; ignore (h, w) bool, the annotation drawn into the
+    pixels (masked out of every count); boxes (K, 4) int (top, left, bottom, right), exclusive, the
+    true hand boxes; in_box (h, w) bool, their union."""
+
+    name: str
+    rgb: np.ndarray
+    ignore: np.ndarray
+    boxes: np.ndarray
+    in_box: np.ndarray
+
+
+def annotation_mask(bgr: np.ndarray, boxes: list[tuple[int, int, int, int]]) -> np.ndarray:
+    """The pixels of gtea_grasps' drawn annotation (x0, y0, x1, y1 boxes, inclusive): a 7-px band on
+    every drawn box edge, and near the boxes the saturated pure blue / green lines and the red text
+    (one channel high, the others far below), grown by 2 px. Found from the label file's boxes and
+    the colours alone, never from any skin model."""
+    h, w = bgr.shape[:2]
+    band, near, top = np.zeros((h, w), np.uint8), np.zeros((h, w), bool), np.zeros((h, w), bool)
+    for x0, y0, x1, y1 in boxes:
+        cv2.rectangle(band, (x0, y0), (x1, y1), 1, 7)
+        near[max(y0 - 40, 0):y1 + 31, max(x0 - 30, 0):x1 + 31] = True
+        top[max(y0 - 25, 0):y0 + 60, max(x0 - 10, 0):x1 + 160] = True   # the text is written from the box's top
+    c = bgr.astype(np.int32)
+    high, low = c.max(-1), c.min(-1)
+    pure = (high - low > 110) & (high > 140) & ((c - low[..., None]) < 70).sum(-1) == 2
+    red = (c[..., 2] - np.maximum(c[..., 0], c[..., 1]) > 80) & top
+    drawn = cv2.dilate(((pure & near) | red).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    return (band > 0) | drawn
+
+
+def load_gtea(root: str | Path, scale: float = 1.0) -> list[GteaFrame]:
+    """The frames of gtea_grasps with their hand boxes (labels.csv) and annotation masks, scaled."""
+    import csv
+    folder = Path(root) / GTEA_DIR
+    rows: dict[str, list[dict]] = {}
+    with open(folder / "labels.csv", newline="") as f:
+        for row in csv.DictReader(f):
+            rows.setdefault(row["image"], []).append(row)
+    frames = []
+    for image, labels in sorted(rows.items()):
+        bgr = cv2.imread(str(folder / image), cv2.IMREAD_COLOR)
+        if bgr is None:
+            raise ValueError(f"{image}: could not read it under {folder}")
+        hands = [tuple(int(r[k]) for k in ("hand_xmin", "hand_ymin", "hand_xmax", "hand_ymax")) for r in labels]
+        objects = [tuple(int(r[k]) for k in ("obj_xmin", "obj_ymin", "obj_xmax", "obj_ymax")) for r in labels
+                   if r["obj_xmin"] not in ("", "-1")]
+        ignore = annotation_mask(bgr, hands + objects)
+        in_box = np.zeros(bgr.shape[:2], bool)
+        for x0, y0, x1, y1 in hands:
+            in_box[y0:y1 + 1, x0:x1 + 1] = True
+        rgb, ignore, in_box = scaled(bgr[..., ::-1].astype(np.float32), scale, (ignore, in_box))
+        boxes = np.array([(y0, x0, y1 + 1, x1 + 1) for x0, y0, x1, y1 in hands], np.float64) * scale
+        frames.append(GteaFrame(Path(image).stem, rgb, ignore, np.round(boxes).astype(int), in_box))
+    return frames

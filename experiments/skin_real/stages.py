@@ -15,7 +15,8 @@ from experiments.skin_real.config import PRESETS, Config
 from experiments.skin_real.data import hgr_names, load_photo, missing_data
 from experiments.skin_real.evaluate import GRABCUT, METHODS, OURS, Evaluation, evaluate_photos
 from experiments.skin_real.metrics import curve_scores, per_photo_iou, pooled_scores, threshold_counts
-from experiments.skin_real.report import report
+from experiments.skin_real.one_model import VARIANTS, run_one_model
+from experiments.skin_real.report import one_model_report, report
 from lfd_common import enable_compilation_cache
 from lfd_jax import UCI_FILE, fit_thresholded_skin, load_uci_pixels
 
@@ -92,6 +93,8 @@ def main(argv=None) -> dict:
     if message:
         raise SystemExit(message)
     enable_compilation_cache()
+    if cfg.study == "one_model":
+        return one_model_main(cfg, run)
     start = time.perf_counter()
     model, threshold, uci_curve, model_result = skin_model_stage(cfg)
     photos_result, ev = photos_stage(cfg, model, threshold, uci_curve)
@@ -103,4 +106,18 @@ def main(argv=None) -> dict:
           f"GrabCut {written['iou_grabcut']:.3f}; "
           f"hand found ours {written['hand_found_rate_ours']:.3f} on {written['n_photos']} photos; "
           f"wrote {run.path}/ in {runtime:.0f} s")
+    return written
+
+
+def one_model_main(cfg: Config, run) -> dict:
+    """The one-model study: fit, choose on validation, report on every real set; writes the model
+    (skin_model.npz, its threshold the generic variant's chosen one; `hog_jax.load_skin_model` reads it)."""
+    from hog_jax import save_skin_model
+    metrics, figures, settings = run_one_model(cfg)
+    generic = settings["generic"]
+    save_skin_model(run.file("skin_model.npz"), generic.model._replace(threshold=np.float32(generic.threshold)))
+    written = run.write_stages([StageResult(metrics, figures)], header=one_model_report(cfg, metrics),
+                               runtime_s=metrics["total_s"])
+    line = ", ".join(f"{v} {metrics['hgr_test'][v]['iou']:.3f}" for v in VARIANTS)
+    print(f"HGR held-out IoU: {line}; wrote {run.path}/ in {metrics['total_s']:.0f} s")
     return written

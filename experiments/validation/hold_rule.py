@@ -12,7 +12,7 @@ import jax, numpy as np
 import sim, hog_jax
 from experiments.data import video
 from experiments.video_segmentation.evaluate import evaluate_clip, TRACKED
-from hog_jax.video import (BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, fit_skin, fit_video_models,
+from hog_jax.video import (BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, fit_video_models,
                            pad_frames, segment_stereo, stereo_camera_from_matrices)
 from lfd_common import enable_compilation_cache
 
@@ -30,14 +30,7 @@ for p, c, r, script in video.clip_scripts(settings):
         print("rendered", p, c, round(time.time() - t), flush=True)
 if render_only:
     sys.exit()
-rng = np.random.default_rng(0)
-skin = []
-for p in SKIN_PERSONS:
-    rec = recs[p, 0]
-    lab = rec.left_labels[::3]
-    m = (lab == 2) | (lab == 3)
-    skin.append(rec.left[::3][m][rng.random(m.sum()) < 0.05])
-rgb_skin = fit_skin(jax.random.key(1), np.concatenate(skin))
+rgb_skin = video.fit_skin_models(settings, SKIN_PERSONS, 1)[0]
 options = VideoOptions(background=BackgroundOptions.for_fps(settings.fps))._replace(**over)
 start = video.segmentation_start(settings)
 res = {}
@@ -49,11 +42,7 @@ for n, (p, c) in enumerate(pairs):
     seg = segment_stereo(models, left, right, start, camera, options,
                          HandFaceOptions(tracking=TrackOptions(min_init=3)))
     seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
-    skin_mask = np.asarray(
-        hog_jax.segment(
-            hog_jax.fit_skin_model(jax.random.key(0), np.concatenate(skin), rec.left[0].reshape(-1, 3)[::50]), rec.left
-        ).skin
-    )
+    skin_mask = np.asarray(hog_jax.segment(rgb_skin, rec.left).skin)
     counts = evaluate_clip(rec, skin_mask, seg, start, camera)
     iou = {r: counts.inter[TRACKED, r] / max(counts.union[TRACKED, r], 1) for r in ("hand", "face", "person", "object")}
     res[f"{p}:{c}"] = iou

@@ -55,7 +55,7 @@ def main() -> None:
     args = parser.parse_args()
     enable_compilation_cache()
     base = Config(**PRESETS[args.preset])
-    chroma, _ = skin_models(base, base.video_settings())
+    chroma = skin_models(base, base.video_settings())
     for database in args.databases:
         for window in args.windows:
             for pixels in args.pixels if database == "study" else [0]:

@@ -30,7 +30,7 @@ def loop_models(preset: str):
     enable_compilation_cache()
     cfg = Config(**PRESETS[preset])
     settings = cfg.video_settings()
-    _, rgb = skin_models(cfg, settings)
+    rgb = skin_models(cfg, settings)
     phmms = phmm_models(cfg, settings)
     offset, sigma, thr, _ = validation_stage(cfg, settings, phmms, rgb)
     online = im.recognizer(phmms, sigma, thr, cfg.online_window)

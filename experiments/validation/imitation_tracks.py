@@ -20,7 +20,7 @@ def preset_gaps(preset: str) -> None:
     """Print one line per validation demonstration and the preset's offset and residual (cm)."""
     cfg = Config(**PRESETS[preset])
     settings = cfg.video_settings()
-    _, rgb_skin = skin_models(cfg, settings)
+    rgb_skin = skin_models(cfg, settings)
     demos = draw_demos(cfg.n_validation, cfg.seed + VALIDATION_SEED, cfg.demonstrators, cfg.handover_xy)
     actors = pl.Actors(settings)
     gaps = []

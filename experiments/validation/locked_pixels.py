@@ -15,7 +15,7 @@ import numpy as np
 
 import sim
 from experiments.data import video
-from hog_jax.video import BackgroundOptions, VideoOptions, fit_skin, fit_video_models, pad_frames, segment_recording
+from hog_jax.video import BackgroundOptions, VideoOptions, fit_video_models, pad_frames, segment_recording
 from hog_jax.video._src.pipeline import colour_log_densities
 from lfd_common import enable_compilation_cache
 
@@ -27,16 +27,10 @@ settings = video.preset("paper", seed=1)
 start = video.segmentation_start(settings)
 recs = {(p, c): video.render_recording(settings, s) for p, c, r, s in video.clip_scripts(settings)
         if r == 0 and ((p, c) == (person, oac) or (p in SKIN_PERSONS and c == 0))}
-rng = np.random.default_rng(0)
-skin = []
-for p in SKIN_PERSONS:
-    lab = recs[p, 0].left_labels[::3]
-    is_skin = (lab == 2) | (lab == 3)
-    skin.append(recs[p, 0].left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
 options = VideoOptions(background=BackgroundOptions.for_fps(settings.fps))
 rec = recs[person, oac]
 left, T = pad_frames(rec.left, 50), len(rec.left)
-models, _ = fit_video_models(jax.random.key(1), fit_skin(jax.random.key(1), np.concatenate(skin)), left, start, options)
+models, _ = fit_video_models(jax.random.key(1), video.fit_skin_models(settings, SKIN_PERSONS, 1)[0], left, start, options)
 seg = segment_recording(models, left, start, options)
 labels, moving = np.asarray(seg.labels)[:T], np.asarray(seg.foreground)[:T]
 false_person = (labels == 1) & (rec.left_labels == 0)

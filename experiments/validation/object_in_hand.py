@@ -30,10 +30,10 @@ for i, script in enumerate(scripts):
     path = str(cache_dir("validation") / f"object_in_hand_front_{i}.npz")
     rec = video.render_recording(settings, script, progress=None)
     if not os.path.exists(path):
-        _, rgb_skin, _ = video.fit_skin_models(settings, range(8, 10), cfg.seed)
+        skin_model, _ = video.fit_skin_models(settings, range(8, 10), cfg.seed)
         start = video.segmentation_start(settings)
         camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
-        out = front_end(jax.random.key(cfg.seed + i), rgb_skin, rec.left, rec.right, start, camera,
+        out = front_end(jax.random.key(cfg.seed + i), skin_model, rec.left, rec.right, start, camera,
                         VideoOptions(background=BackgroundOptions.for_fps(settings.fps)),
                         HandFaceOptions(tracking=TrackOptions(min_init=3)), pad_multiple=50)
         labels, positions, hl, hr, tracked = out.labels, out.positions, out.hand_left, out.hand_right, out.tracked

@@ -23,8 +23,8 @@ def demo_stage(cfg) -> StageResult:
     start = time.perf_counter()
     vcfg = demo_config(int(cfg.seed))
     settings = vcfg.video_settings()
-    chroma_skin, rgb_skin, _ = skin_stage(vcfg, settings)
-    metrics, result, _ = clips_stage(vcfg, settings, chroma_skin, rgb_skin)
+    skin, _ = skin_stage(vcfg, settings)
+    metrics, result, _ = clips_stage(vcfg, settings, skin)
     elapsed = time.perf_counter() - start
     keys = ("iou_hand", "iou_face", "iou_person", "iou_hand_skin_only", "hand_centroid_error_px", "hand_error_3d_cm")
     out = {f"video_demo_{k}": float(metrics[k]) for k in keys}

@@ -1,10 +1,9 @@
 """The stages of the video segmentation study and its `main`: skin models from some persons,
 every clip of the others through (a) skin alone, (b) level sets with the background model and (c)
-tracking; the background model on the real CDnet video beside OpenCV; figures; one writer."""
+tracking; the real-video part (`real_background`, `real_reach`); figures; one writer."""
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import jax
 import numpy as np
@@ -13,11 +12,11 @@ import hog_jax
 import sim
 from experiments.config import StageResult, parse_config
 from experiments.data import video
-from experiments.data.cdnet import load_cdnet
-from experiments.peers.background import f1_stage
 from experiments.video_segmentation import plots
 from experiments.video_segmentation.config import PRESETS, Config
 from experiments.video_segmentation.evaluate import METHODS, SKIN_ONLY, TRACKED, evaluate_clip
+from experiments.video_segmentation.real_background import background_stage
+from experiments.video_segmentation.real_reach import reach_stage
 from experiments.video_segmentation.report import report
 from hog_jax.video import (BackgroundOptions, HandFaceOptions, TrackOptions, VideoOptions, fit_video_models, pad_frames,
                            segment_stereo, stereo_camera_from_matrices)
@@ -25,12 +24,12 @@ from lfd_common import enable_compilation_cache
 
 
 def skin_stage(cfg: Config, settings: video.VideoSettings):
-    """(a)'s chroma skin model and (b)'s RGB skin GMM from the clips of the first `cfg.n_skin_persons`
+    """The skin model of (a) and (b) from the clips of the first `cfg.n_skin_persons`
     (`video.fit_skin_models`), and the pixel counts."""
     return video.fit_skin_models(settings, range(cfg.n_skin_persons), cfg.seed)
 
 
-def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, StageResult, dict]:
+def clips_stage(cfg: Config, settings, skin) -> tuple[dict, StageResult, dict]:
     """Every clip of the evaluated persons: the three methods' pooled IoUs and centroid errors."""
     options = VideoOptions(motion_penalty=cfg.motion_penalty, object_margin=cfg.object_margin,
                            person_frames=cfg.person_frames, background=BackgroundOptions.for_fps(settings.fps))
@@ -46,11 +45,11 @@ def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, Sta
             break
         left, right, T = pad_frames(rec.left, cfg.pad_frames), pad_frames(rec.right, cfg.pad_frames), len(rec.left)
         camera = stereo_camera_from_matrices(rec.P_left, rec.P_right, *rec.left.shape[1:3])
-        models, _ = fit_video_models(jax.random.key(cfg.seed + n), rgb_skin, left, start, options)
+        models, _ = fit_video_models(jax.random.key(cfg.seed + n), skin, left, start, options)
         seg = segment_stereo(models, left, right, start, camera, options,
                              HandFaceOptions(tracking=TrackOptions(min_init=3)))
         seg = jax.tree.map(lambda a: np.asarray(a)[:T] if np.ndim(a) and np.shape(a)[0] == left.shape[0] else a, seg)
-        skin_mask = np.asarray(hog_jax.segment(chroma_skin, rec.left).skin)
+        skin_mask = np.asarray(hog_jax.segment(skin, rec.left).skin)
         counts = evaluate_clip(rec, skin_mask, seg, start, camera)
         for key in counts.inter:
             inter[key] = inter.get(key, 0) + counts.inter[key]
@@ -87,33 +86,28 @@ def clips_stage(cfg: Config, settings, chroma_skin, rgb_skin) -> tuple[dict, Sta
     return metrics, StageResult(metrics, figures), {"first": first}
 
 
-def cdnet_stage(cfg: Config) -> StageResult:
-    """The background model on the real CDnet highway video beside MOG2 and KNN (skipped, saying so,
-    when the folder is absent)."""
-    if not Path(cfg.cdnet_dir).is_dir():
-        print(f"note: {cfg.cdnet_dir} not found; the real-video part is skipped")
-        return StageResult({"real_skipped": True}, report="Real video: skipped (no CDnet folder).")
-    clip = load_cdnet(cfg.cdnet_dir, 1, cfg.cdnet_last)
-    scores = f1_stage(clip.frames, clip.groundtruth, clip.roi)
-    metrics = {"real_f1_ours": scores["ours"]["f1"], "real_f1_mog2": scores["mog2"]["f1"],
-               "real_f1_knn": scores["knn"]["f1"], "real_skipped": False, "real_eval_frames": cfg.cdnet_last - 469,
-               "real_scores": scores}
-    return StageResult(metrics)
-
-
 def main(argv=None) -> dict:
     cfg, run = parse_config(Config, PRESETS, name="video_segmentation", argv=argv)
-    sim.setup_rendering()
     enable_compilation_cache()
     start_s = time.perf_counter()
-    settings = cfg.video_settings()
-    chroma_skin, rgb_skin, skin_metrics = skin_stage(cfg, settings)
-    metrics, clips_result, extra = clips_stage(cfg, settings, chroma_skin, rgb_skin)
-    real = cdnet_stage(cfg)
+    results, metrics, skin_metrics = [], {}, {}
+    if cfg.rendered:
+        sim.setup_rendering()
+        settings = cfg.video_settings()
+        skin, skin_metrics = skin_stage(cfg, settings)
+        rendered, clips_result, extra = clips_stage(cfg, settings, skin)
+        results.append(clips_result)
+        metrics.update(rendered)
+        rec, seg, _ = extra["first"]
+        video.write_video(plots.overlay_frames(rec, seg), run.file("overlay.mp4"), fps=settings.fps)
+    if cfg.real:
+        for stage in (background_stage, reach_stage):
+            result = stage(cfg, plots)
+            results.append(result)
+            metrics.update(result.metrics)
+        metrics["real_skipped"] = not metrics.get("real_sequences_scored") and not metrics.get("reach_scored")
     runtime = time.perf_counter() - start_s
-    rec, seg, start = extra["first"]
-    video.write_video(plots.overlay_frames(rec, seg), run.file("overlay.mp4"), fps=settings.fps)
-    written = run.write_stages([clips_result, real], header=report(cfg, {**metrics, **real.metrics}, runtime),
-                               runtime_s=runtime, **skin_metrics)
+    written = run.write_stages(results, header=report(cfg, metrics, runtime), runtime_s=runtime,
+                               real_skipped=metrics.get("real_skipped", True), **skin_metrics)
     print(f"wrote {run.path}/ in {runtime:.0f} s")
     return written

@@ -49,7 +49,7 @@ from lfd_common import ArraySpec, ModelCodec, as_array, check_choice, check_int,
 __all__ = [
     "GMM", "Segmentation", "SkinModel", "SkinStructure", "crop_components", "fit_gmm", "fit_skin_model",
     "gmm_log_prob", "load_skin_model",
-    "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_log_ratio",
+    "median3", "rgb_to_chroma", "save_skin_model", "segment", "skin_features", "skin_log_ratio",
 ]
 
 
@@ -120,6 +120,25 @@ def rgb_to_chroma(rgb: Real[ArrayLike, "*batch 3"]) -> Float[Array, "*batch 2"]:
     cr = (r - y) * 0.713 + 128.0
     cb = (b - y) * 0.564 + 128.0
     return jnp.stack([cr, cb], axis=-1) / 255.0
+
+
+def skin_features(rgb: Real[ArrayLike, "*batch 3"], luma: bool = False) -> Float[Array, "*batch P"]:
+    """The colour a skin model lives in: (Cr, Cb) / 255 (`rgb_to_chroma`, P = 2), or with `luma` also
+    Y / 255 of BT.601 (P = 3: a luminance-dependent model, whose chroma may change with brightness).
+
+    Args:
+        rgb: (..., 3) RGB in [0, 255].
+        luma: whether Y / 255 is the third channel.
+
+    Returns:
+        (..., P) features.
+    """
+    chroma = rgb_to_chroma(rgb)
+    if not luma:
+        return chroma
+    rgb = jnp.asarray(rgb, jnp.float32)
+    y = (0.299 * rgb[..., 0] + 0.587 * rgb[..., 1] + 0.114 * rgb[..., 2]) / 255.0
+    return jnp.concatenate([chroma, y[..., None]], axis=-1)
 
 
 def whiten(chols, diff) -> jax.Array:
@@ -225,11 +244,12 @@ def _fit_gmm(key, x: np.ndarray, n_components, n_iter, reg, x_name: str, g_name:
 
 def fit_skin_model(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], background_rgb: Real[ArrayLike, "M 3"],
                    n_components: int = 4, n_background: int = 4, threshold: float = 0.0,
-                   n_iter: int = 100) -> SkinModel:
+                   n_iter: int = 100, luma: bool = False) -> SkinModel:
     """Skin and background GMMs on chroma from labelled RGB pixels (GRASP §III-A).
 
-    Each mixture is `fit_gmm` of the pixels' chroma (`rgb_to_chroma`): from one pixel (or identical
-    pixels) a component gets the floor covariance reg * I (a `UserWarning` for N <= 2), never NaN.
+    Each mixture is `fit_gmm` of the pixels' chroma (`rgb_to_chroma`), or with `luma` of (Cr, Cb, Y)
+    (`skin_features`; the mixtures' P = 3 says so to every user of the model): from one pixel (or
+    identical pixels) a component gets the floor covariance reg * I (a `UserWarning` for N <= P), never NaN.
 
     Args:
         key: a `jax.random` key.
@@ -239,6 +259,7 @@ def fit_skin_model(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], backgr
         n_background: components of the background mixture, in [1, M].
         threshold: the log-ratio threshold of the model (0: equal priors).
         n_iter: EM iterations.
+        luma: whether the model includes Y / 255 (a luminance-dependent term).
 
     Returns:
         A `SkinModel`.
@@ -253,17 +274,18 @@ def fit_skin_model(key: Key[Array, ""], skin_rgb: Real[ArrayLike, "N 3"], backgr
     check_real(threshold, "threshold")
     check_int(n_components, "n_components", min_value=1, max_value=skin.shape[0])
     check_int(n_background, "n_background", min_value=1, max_value=bg.shape[0])
+    if not isinstance(luma, (bool, np.bool_)):
+        raise ValueError(f"luma: expected a bool, got {type(luma).__name__}")
     k1, k2 = jax.random.split(key)
-    return SkinModel(_fit_gmm(k1, np.asarray(rgb_to_chroma(skin)), n_components, n_iter, 1e-5, "skin_rgb",
-                              "n_components"),
-                     _fit_gmm(k2, np.asarray(rgb_to_chroma(bg)), n_background, n_iter, 1e-5, "background_rgb",
-                              "n_background"),
+    feats = lambda x: np.asarray(skin_features(x, bool(luma)))
+    return SkinModel(_fit_gmm(k1, feats(skin), n_components, n_iter, 1e-5, "skin_rgb", "n_components"),
+                     _fit_gmm(k2, feats(bg), n_background, n_iter, 1e-5, "background_rgb", "n_background"),
                      jnp.float32(threshold))
 
 
 @jax.jit
 def log_ratio(model: SkinModel, rgb):
-    c = rgb_to_chroma(rgb)
+    c = skin_features(rgb, model.skin.means.shape[-1] == 3)
     return gmm_log_prob(model.skin, c) - gmm_log_prob(model.background, c)
 
 
@@ -453,18 +475,18 @@ def segment(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], seed_points: R
 
 # ------------------------------------------------------------------------------------ persistence
 _CHROMA = "CrCb/255 BT.601"  # what `rgb_to_chroma` computes; a model of another colour space would not fit
-_P = 2  # chroma channels
+_SPACES = {_CHROMA: 2, "CrCbY/255 BT.601": 3}  # colour space -> P (`skin_features` without / with luma)
 
 
 @dataclasses.dataclass(frozen=True)
 class SkinStructure:
-    """What defines a `SkinModel`: the components of each mixture and the colour space (P = 2 chroma).
+    """What defines a `SkinModel`: the components of each mixture and the colour space.
 
     Attributes:
         n_skin_components: components of the skin mixture, >= 1.
         n_background_components: components of the background mixture, >= 1.
-        chroma: the colour space the mixtures live in ("CrCb/255 BT.601", what `rgb_to_chroma`
-            computes).
+        chroma: the colour space the mixtures live in: "CrCb/255 BT.601" (P = 2, what
+            `rgb_to_chroma` computes) or "CrCbY/255 BT.601" (P = 3, `skin_features` with luma).
 
     Raises:
         ValueError: naming the field for a count < 1 or another colour space.
@@ -477,20 +499,22 @@ class SkinStructure:
     def __post_init__(self):
         check_int(self.n_skin_components, "n_skin_components", min_value=1)
         check_int(self.n_background_components, "n_background_components", min_value=1)
-        check_choice(self.chroma, "chroma", (_CHROMA,))
+        check_choice(self.chroma, "chroma", tuple(_SPACES))
 
 
 def _structure_of(model: SkinModel) -> SkinStructure:
-    return SkinStructure(int(model.skin.log_weights.shape[0]), int(model.background.log_weights.shape[0]))
+    space = {p: name for name, p in _SPACES.items()}.get(int(model.skin.means.shape[-1]), _CHROMA)
+    return SkinStructure(int(model.skin.log_weights.shape[0]), int(model.background.log_weights.shape[0]), space)
 
 
-def _gmm_template(n: int) -> GMM:
-    return GMM(ArraySpec((n,)), ArraySpec((n, _P)), ArraySpec((n, _P, _P)))
+def _gmm_template(n: int, p: int) -> GMM:
+    return GMM(ArraySpec((n,)), ArraySpec((n, p)), ArraySpec((n, p, p)))
 
 
 def _template(structure: SkinStructure) -> SkinModel:
-    return SkinModel(_gmm_template(structure.n_skin_components), _gmm_template(structure.n_background_components),
-                     ArraySpec(()))
+    p = _SPACES[structure.chroma]
+    return SkinModel(_gmm_template(structure.n_skin_components, p),
+                     _gmm_template(structure.n_background_components, p), ArraySpec(()))
 
 
 def _check(model: SkinModel) -> None:

@@ -15,6 +15,11 @@ mixture of skin (prior weight π) and background (1 - π); π is re-estimated ea
 are processed one after another by `lax.map` (an iteration holds N x (G_s + G_b) responsibilities),
 each iteration vectorised over pixels. Covariances are 2 x 2, factored in closed form (no LAPACK call,
 see `segment.whiten`).
+
+`adapt_to_skin` / `adapt_to_face` adapt the skin mixture alone to pixels known to be one person's
+skin (the face found early in a video, the most confident skin blob of a photo): Reynolds et al.
+(2000) relevance MAP of the means and weights (optionally the covariances), the background mixture
+and the threshold kept; the adapted model then segments that person's every frame.
 """
 from __future__ import annotations
 
@@ -26,14 +31,17 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Real
 
 from hog_jax._src.segment import (GMM, Segmentation, SkinModel, log_ratio, whiten, crop_components,
-    median3, rgb_to_chroma)
+    median3, skin_features)
 from lfd_common import as_array, check_int, check_real
 
-__all__ = ["adapt_skin_model", "segment_adapted"]
+__all__ = ["adapt_skin_model", "adapt_to_face", "adapt_to_skin", "segment_adapted"]
 
 
 def _chol2(cov):
-    """Lower Cholesky factors of (..., 2, 2) symmetric positive-definite matrices, in closed form."""
+    """Lower Cholesky factors of (..., P, P) symmetric positive-definite matrices: in closed form for
+    P = 2 (no LAPACK call), else `jnp.linalg.cholesky`."""
+    if cov.shape[-1] != 2:
+        return jnp.linalg.cholesky(cov)
     l00 = jnp.sqrt(cov[..., 0, 0])
     l10 = cov[..., 1, 0] / l00
     l11 = jnp.sqrt(jnp.maximum(cov[..., 1, 1] - l10 ** 2, 1e-12))
@@ -117,7 +125,8 @@ def adapt_skin_model(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], n_ite
     if not isinstance(adapt_skin, (bool, np.bool_)):
         raise ValueError(f"adapt_skin: expected a bool, got {type(adapt_skin).__name__}")
     reg = check_real(reg, "reg", min_value=0.0, exclusive_min=True, max_value=1.0)
-    chroma = rgb_to_chroma(jnp.asarray(arr)).reshape(arr.shape[0], -1, 2)
+    P = int(model.skin.means.shape[-1])
+    chroma = skin_features(jnp.asarray(arr), P == 3).reshape(arr.shape[0], -1, P)
     return _adapt(model, chroma, n_iter, jnp.float32(relevance), jnp.float32(reg), bool(adapt_skin))
 
 
@@ -158,3 +167,117 @@ def segment_adapted(model: SkinModel, frames: Real[ArrayLike, "B H W 3"],
     gray = (arr @ np.array([0.299, 0.587, 0.114], np.float32)) / 255.0
     seeds = None if seed_points is None else as_array(seed_points, "seed_points", shape=(arr.shape[0], 2))
     return crop_components(gray, skin, seeds, out_size, margin)
+
+
+@partial(jax.jit, static_argnames=("n_iter", "adapt_covariances"))
+def _reynolds(prior: GMM, x, weight, relevance, n_iter: int, adapt_covariances: bool) -> GMM:
+    """Reynolds MAP of a mixture's means and weights (and covariances) from weighted points x (N, P)."""
+    w0 = jnp.exp(prior.log_weights)
+    mu0 = prior.means
+    cov0 = prior.chols @ jnp.swapaxes(prior.chols, -1, -2)
+    total = jnp.maximum(weight.sum(), 1e-12)
+
+    def step(_, gmm):
+        resp = jax.nn.softmax(_component_log_probs(gmm, x), axis=1) * weight[:, None]   # (N, G)
+        n = resp.sum(0)
+        ex = (resp.T @ x) / jnp.maximum(n, 1e-12)[:, None]
+        alpha = n / (n + relevance)
+        mean = alpha[:, None] * ex + (1 - alpha[:, None]) * mu0
+        w = alpha * n / total + (1 - alpha) * w0
+        if adapt_covariances:
+            exx = jnp.einsum("ng,ni,nj->gij", resp, x, x) / jnp.maximum(n, 1e-12)[:, None, None]
+            second = alpha[:, None, None] * exx + (1 - alpha[:, None, None]) * (cov0 + mu0[:, :, None] * mu0[:, None, :])
+            chols = _chol2(second - mean[:, :, None] * mean[:, None, :])
+        else:
+            chols = prior.chols
+        return GMM(jnp.log(w / w.sum()), mean, chols)
+
+    return jax.lax.fori_loop(0, n_iter, step, prior)
+
+
+def adapt_to_skin(model: SkinModel, skin_rgb: Real[ArrayLike, "N 3"], relevance: float = 16.0, n_iter: int = 1,
+                  adapt_covariances: bool = False) -> SkinModel:
+    """The skin mixture adapted to one person's skin pixels by relevance MAP (Reynolds et al. 2000).
+
+    With responsibilities gamma_nk of the skin mixture's components for the pixels' chroma x_n,
+    n_k = sum_n gamma_nk, E_k = sum_n gamma_nk x_n / n_k and alpha_k = n_k / (n_k + r):
+    mu_k' = alpha_k E_k + (1 - alpha_k) mu_k and w_k' proportional to alpha_k n_k / N + (1 - alpha_k) w_k
+    (Reynolds, Quatieri & Dunn, "Speaker verification using adapted Gaussian mixture models", DSP
+    10, 2000, eqs. 11-14); with `adapt_covariances` the second moments likewise. `n_iter` > 1 repeats
+    the step with responsibilities under the adapted mixture (MAP-EM), always towards the prior. The
+    background mixture and the threshold are kept (GRASP §III-A's ratio with the person's own skin).
+
+    Args:
+        model: the `SkinModel` (the prior).
+        skin_rgb: (N, 3) RGB in [0, 255], pixels known to be the person's skin.
+        relevance: r > 0, in pixels: a component moves halfway to its data once r pixels fall on it.
+        n_iter: MAP steps, >= 1 (Reynolds: 1).
+        adapt_covariances: whether the covariances adapt too.
+
+    Returns:
+        The adapted `SkinModel` (the same shapes as `model`).
+
+    Raises:
+        ValueError: naming the argument for pixels of the wrong shape or range, relevance <= 0,
+            n_iter < 1, or adapt_covariances not a bool.
+    """
+    rgb = as_array(skin_rgb, "skin_rgb", shape=(None, 3), dtype=np.float32, min_value=0, max_value=255)
+    relevance = check_real(relevance, "relevance", min_value=0.0, exclusive_min=True, max_value=1e12)
+    n_iter = check_int(n_iter, "n_iter", min_value=1)
+    if not isinstance(adapt_covariances, (bool, np.bool_)):
+        raise ValueError(f"adapt_covariances: expected a bool, got {type(adapt_covariances).__name__}")
+    size = 1 << max(int(np.ceil(np.log2(len(rgb)))), 4)  # padded (weight 0) to a power of two: few compilations
+    x = skin_features(jnp.asarray(np.pad(rgb, ((0, size - len(rgb)), (0, 0)))), model.skin.means.shape[-1] == 3)
+    weight = jnp.asarray(np.arange(size) < len(rgb), jnp.float32)
+    skin = _reynolds(model.skin, x, weight, jnp.float32(relevance), n_iter, bool(adapt_covariances))
+    return SkinModel(skin, model.background, model.threshold)
+
+
+def adapt_to_face(model: SkinModel, frames: Real[ArrayLike, "B H W 3"], face: ArrayLike, relevance: float = 16.0,
+                  n_iter: int = 1, adapt_covariances: bool = False, only_skin: bool = True) -> SkinModel:
+    """The skin model adapted to the person whose face (or other skin region) is given (`adapt_to_skin`).
+
+    The pixels inside `face` in every frame (a mask, or a box per frame) are the person's skin sample;
+    with `only_skin` those the model does not already call skin (hair, eyes, the wall behind a box)
+    are left out. The adapted model then segments the whole recording (`skin_log_ratio`).
+
+    Args:
+        model: the `SkinModel` (the prior).
+        frames: (B, H, W, 3) RGB frames in [0, 255].
+        face: (B, H, W) or (H, W) bool mask, or (B, 4) / (4,) int boxes (top, left, bottom, right),
+            bottom and right exclusive, clipped to the frame.
+        relevance: r > 0, in pixels (`adapt_to_skin`).
+        n_iter: MAP steps, >= 1.
+        adapt_covariances: whether the covariances adapt too.
+        only_skin: keep only the face pixels whose log ratio exceeds the model's threshold.
+
+    Returns:
+        The adapted `SkinModel`; `model` itself when no pixel is left to adapt on.
+
+    Raises:
+        ValueError: naming the argument for frames or face of the wrong shape or range, and as
+            `adapt_to_skin`.
+    """
+    arr = as_array(frames, "frames", ndim=4, dtype=np.float32, min_value=0, max_value=255)
+    B, H, W, C = arr.shape
+    if C != 3:
+        raise ValueError(f"frames: expected (B, H, W, 3) RGB frames, got shape {arr.shape}")
+    f = np.asarray(face)
+    if f.dtype == bool and f.shape in ((B, H, W), (H, W)):
+        mask = np.broadcast_to(f, (B, H, W))
+    elif f.shape in ((4,), (B, 4)) and np.issubdtype(f.dtype, np.integer):
+        boxes = np.broadcast_to(f, (B, 4))
+        rows, cols = np.arange(H)[None, :, None], np.arange(W)[None, None, :]
+        mask = ((rows >= boxes[:, 0, None, None]) & (rows < boxes[:, 2, None, None])
+                & (cols >= boxes[:, 1, None, None]) & (cols < boxes[:, 3, None, None]))
+    else:
+        raise ValueError(f"face: expected a bool mask ({B}, {H}, {W}) or ({H}, {W}), or int boxes ({B}, 4) or "
+                         f"(4,), got {f.dtype} {f.shape}")
+    if not isinstance(only_skin, (bool, np.bool_)):
+        raise ValueError(f"only_skin: expected a bool, got {type(only_skin).__name__}")
+    pixels = arr[mask]
+    if only_skin and len(pixels):
+        pixels = pixels[np.asarray(log_ratio(model, jnp.asarray(pixels))) > float(model.threshold)]
+    if not len(pixels):
+        return model
+    return adapt_to_skin(model, pixels, relevance, n_iter, adapt_covariances)

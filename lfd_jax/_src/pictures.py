@@ -100,8 +100,71 @@ def overlay(frames, labels, alpha: float = 0.5) -> np.ndarray:
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
+class VideoWriter:
+    """Frames written chunk by chunk to an MP4 file (OpenCV, codec 'mp4v'), so that a long overlay never
+    sits in memory; a GIF (Pillow) where OpenCV cannot write MP4 (that fallback keeps the frames until
+    `close`). A context manager: `with VideoWriter(path, fps) as out: out.write(chunk)`; `out.path` is
+    the file written once closed.
+
+    Args:
+        path: the file; its suffix becomes .mp4 (.gif for the fallback).
+        fps: frames per second, in [0.1, 240].
+
+    Raises:
+        ValueError: naming the argument for a bad frame rate, or frames of the wrong shape, dtype or
+            size (`write`).
+    """
+
+    def __init__(self, path, fps: float = 25.0):
+        self.fps = check_real(fps, "fps", min_value=0.1, max_value=240.0)
+        self.path = Path(path).with_suffix(".mp4")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._writer, self._size, self._kept = None, None, []
+
+    def write(self, frames) -> None:
+        """Append (t, H, W, 3) uint8 RGB frames (every chunk of one size H x W)."""
+        import cv2
+
+        frames = _frames(frames, "frames")
+        size = frames.shape[1:3]
+        if self._size is None:
+            self._size = size
+            h, w = size
+            writer = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, (w, h))
+            self._writer = writer if writer.isOpened() else None
+        elif size != self._size:
+            raise ValueError(f"frames: expected frames of {self._size}, got {size}")
+        if self._writer is None:
+            self._kept.extend(frames)
+            return
+        for frame in frames:
+            self._writer.write(np.ascontiguousarray(frame[..., ::-1]))
+
+    def close(self) -> Path:
+        """Finish the file; returns its path (.gif for the fallback)."""
+        if self._writer is not None:
+            self._writer.release()
+            self._writer = None
+        if self._kept:
+            from PIL import Image
+
+            self.path = self.path.with_suffix(".gif")
+            images = [Image.fromarray(f) for f in self._kept]
+            images[0].save(self.path, save_all=True, append_images=images[1:], duration=int(round(1000 / self.fps)),
+                           loop=0)
+            self._kept = []
+        return self.path
+
+    def __enter__(self) -> "VideoWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 def write_video(frames, path, fps: float = 25.0) -> Path:
-    """Frames as an MP4 file (OpenCV, codec 'mp4v'), or a GIF (Pillow) where OpenCV cannot write MP4.
+    """Frames as an MP4 file (OpenCV, codec 'mp4v'), or a GIF (Pillow) where OpenCV cannot write MP4
+    (`VideoWriter` in one chunk).
 
     Args:
         frames: (T, H, W, 3) uint8 RGB.
@@ -114,25 +177,7 @@ def write_video(frames, path, fps: float = 25.0) -> Path:
     Raises:
         ValueError: naming the argument for bad frames or frame rate.
     """
-    import cv2
-
     frames = _frames(frames, "frames")
-    fps = check_real(fps, "fps", min_value=0.1, max_value=240.0)
-    path = Path(path).with_suffix(".mp4")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    h, w = frames.shape[1:3]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
-    try:
-        if writer.isOpened():
-            for frame in frames:
-                writer.write(np.ascontiguousarray(frame[..., ::-1]))
-    finally:
-        writer.release()
-    if path.exists() and path.stat().st_size > 0:
-        return path
-    from PIL import Image
-
-    gif = path.with_suffix(".gif")
-    images = [Image.fromarray(f) for f in frames]
-    images[0].save(gif, save_all=True, append_images=images[1:], duration=int(round(1000 / fps)), loop=0)
-    return gif
+    with VideoWriter(path, fps) as out:
+        out.write(frames)
+    return out.path

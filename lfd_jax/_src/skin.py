@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import NamedTuple
 
+import cv2
 import jax
 import numpy as np
 
@@ -37,6 +38,45 @@ def load_uci_pixels(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if table.ndim != 2 or table.shape[1] != 4 or not np.isin(table[:, 3], (1, 2)).all():
         raise ValueError(f"path: {path}: expected lines of B G R label (label 1 or 2), got shape {table.shape}")
     return table[:, [2, 1, 0]].astype(np.float32), table[:, 3] == 1
+
+
+def load_mask_pixels(images: list[str | Path], masks: list[str | Path], n_pixels: int = 20000,
+                     seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Labelled pixels sampled from photos with skin masks (the HGR layout: mask 0 (black) is skin).
+
+    Every photo gives the same share of `n_pixels` (uniform without replacement within the photo),
+    so a large photo does not outweigh the others.
+
+    Args:
+        images: the photo files (any format OpenCV reads).
+        masks: the mask files in the same order, the same size as their photos, skin where 0.
+        n_pixels: pixels in all, >= len(images).
+        seed: the sample's seed.
+
+    Returns:
+        (rgb (N, 3) float32 in R, G, B order, is_skin (N,) bool).
+
+    Raises:
+        ValueError: naming the argument for lists of different lengths or none, unreadable files,
+            sizes that differ, or n_pixels < len(images).
+    """
+    if not len(images) or len(images) != len(masks):
+        raise ValueError(f"images, masks: expected equally many files, at least one, got {len(images)} and "
+                         f"{len(masks)}")
+    n_pixels = check_int(n_pixels, "n_pixels", min_value=len(images))
+    rng = np.random.default_rng(seed)
+    per = np.diff(np.linspace(0, n_pixels, len(images) + 1).round().astype(int))
+    rgb, skin = [], []
+    for image, mask, k in zip(images, masks, per):
+        bgr, m = cv2.imread(str(image), cv2.IMREAD_COLOR), cv2.imread(str(mask), cv2.IMREAD_GRAYSCALE)
+        if bgr is None or m is None:
+            raise ValueError(f"images: could not read {image} or its mask {mask}")
+        if m.shape != bgr.shape[:2]:
+            raise ValueError(f"masks: {mask} is {m.shape}, its photo {bgr.shape[:2]}")
+        pick = rng.choice(m.size, min(k, m.size), replace=False)
+        rgb.append(bgr.reshape(-1, 3)[pick, ::-1])
+        skin.append(m.ravel()[pick] == 0)
+    return np.concatenate(rgb).astype(np.float32), np.concatenate(skin)
 
 
 def best_iou_threshold(log_ratio: np.ndarray, is_skin: np.ndarray) -> tuple[float, float]:
@@ -138,3 +178,59 @@ def fit_thresholded_skin(rgb: np.ndarray, is_skin: np.ndarray, seed: int = 0, va
     best, best_iou = best_iou_threshold(ratio, is_skin[held_out])
     chosen = best if threshold is None else float(check_real(threshold, "threshold"))
     return ThresholdedSkin(model, chosen, best, best_iou, ratio, is_skin[held_out], len(fit))
+
+
+HGR_FOLDER = "hgr_hands"
+REAL_SKIN_PERSONS = ("id01", "id02", "id03")
+
+
+def fit_real_skin_model(data: str | Path, n_pixels: int = 20000, luma: bool = True, threshold: float = 1.0,
+                        hgr_persons: tuple[str, ...] = REAL_SKIN_PERSONS, seed: int = 0) -> SkinModel:
+    """The one skin model of stills and video, fitted on real labelled pixels (GRASP §III-A).
+
+    Skin and background mixtures (4 components each, `hog_jax.fit_skin_model`) over (Cr, Cb, Y) / 255
+    (`luma`) of `n_pixels` / 2 skin and as many non-skin pixels of the UCI Skin Segmentation file
+    (faces of many ages and skin tones; all of them where there are fewer) and `n_pixels` pixels of the HGR hand photos of `hgr_persons`
+    (hands and forearms on real backgrounds; `load_mask_pixels`), when `data/hgr_hands/` exists. The
+    defaults are those `python -m experiments.skin_real --preset model` chose on validation persons of
+    HGR and held-out UCI pixels, with the same fitted persons, so its test figures (other HGR persons,
+    egocentric kitchen frames) describe this model.
+
+    Args:
+        data: the folder holding the UCI file (`UCI_FILE`) and optionally `hgr_hands/` (images/ and
+            masks/ of the HGR layout).
+        n_pixels: the pixels sampled from each source, >= 2.
+        luma: model (Cr, Cb, Y) rather than (Cr, Cb).
+        threshold: the log-ratio threshold stored in the model.
+        hgr_persons: the HGR person ids (the `idNN` part of the photo names) fitted on.
+        seed: the samples' and the mixtures' seed.
+
+    Returns:
+        The `SkinModel`, its `threshold` set.
+
+    Raises:
+        FileNotFoundError: naming the UCI file when it is absent.
+        ValueError: naming the argument for n_pixels < 2, a non-finite threshold, or a UCI file
+            without both labels (`data`).
+    """
+    n_pixels = check_int(n_pixels, "n_pixels", min_value=2)
+    threshold = check_real(threshold, "threshold")
+    uci = Path(data) / UCI_FILE
+    if not uci.is_file():
+        raise FileNotFoundError(f"no skin pixels at {uci}: pass the folder holding {UCI_FILE} (UCI Skin Segmentation)")
+    rng = np.random.default_rng(seed)
+    rgb, is_skin = load_uci_pixels(uci)
+    skin_index, other_index = np.flatnonzero(is_skin), np.flatnonzero(~is_skin)
+    if not len(skin_index) or not len(other_index):
+        raise ValueError(f"data: {uci} needs skin and non-skin pixels")
+    skin = [rgb[rng.choice(skin_index, min(n_pixels // 2, len(skin_index)), replace=False)]]
+    background = [rgb[rng.choice(other_index, min(n_pixels // 2, len(other_index)), replace=False)]]
+    folder = Path(data) / HGR_FOLDER
+    names = sorted(p.stem for p in (folder / "images").glob("*.jpg") if any(f"_{i}_" in p.stem for i in hgr_persons))
+    if names:
+        hrgb, hskin = load_mask_pixels([folder / "images" / f"{n}.jpg" for n in names],
+                                       [folder / "masks" / f"{n}.bmp" for n in names], n_pixels, seed)
+        skin.append(hrgb[hskin])
+        background.append(hrgb[~hskin])
+    return fit_skin_model(jax.random.key(seed), np.concatenate(skin), np.concatenate(background), threshold=threshold,
+                          luma=luma)

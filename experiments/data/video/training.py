@@ -12,7 +12,6 @@ import hog_jax
 from experiments.config import progress
 from experiments.data.video.render import clip_scripts, render_recording
 from experiments.data.video.settings import Recording, VideoSettings
-from hog_jax.video import fit_skin
 
 
 def segmentation_start(settings: VideoSettings) -> int:
@@ -31,10 +30,11 @@ def selected_clips(settings: VideoSettings, where: Callable[[int, int, int], boo
 
 
 def fit_skin_models(settings: VideoSettings, persons: Container[int], seed: int):
-    """The chroma skin model (`hog_jax.fit_skin_model`) and the RGB skin GMM (`hog_jax.video.fit_skin`)
-    from the hand and face pixels of the clips of `persons` (left views, every third frame, 5 % of the
-    skin and 0.5 % of the other pixels drawn with `seed`): (chroma model, RGB GMM, {"skin_pixels",
-    "non_skin_pixels"} counts)."""
+    """The skin model of stills and video (`hog_jax.fit_skin_model` over (Cr, Cb, Y), as the real-pixel
+    model `lfd_jax.fit_real_skin_model`) from the hand and face
+    pixels of the clips of `persons` (left views, every third frame, 5 % of the skin and 0.5 % of the
+    other pixels drawn with `seed`): (the `hog_jax.SkinModel`, {"skin_pixels", "non_skin_pixels"}
+    counts)."""
     skin, other = [], []
     rng = np.random.default_rng(seed)
     for _, _, _, rec in selected_clips(settings, lambda p, c, r: p in persons):
@@ -43,6 +43,5 @@ def fit_skin_models(settings: VideoSettings, persons: Container[int], seed: int)
         skin.append(rec.left[::3][is_skin][rng.random(is_skin.sum()) < 0.05])
         other.append(rec.left[::3][~is_skin][rng.random((~is_skin).sum()) < 0.005])
     skin, other = np.concatenate(skin), np.concatenate(other)
-    k1, k2 = jax.random.split(jax.random.key(seed))
-    return hog_jax.fit_skin_model(k1, skin, other), fit_skin(k2, skin), {"skin_pixels": len(skin),
-                                                                          "non_skin_pixels": len(other)}
+    model = hog_jax.fit_skin_model(jax.random.key(seed), skin, other, luma=True)
+    return model, {"skin_pixels": len(skin), "non_skin_pixels": len(other)}

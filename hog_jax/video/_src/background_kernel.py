@@ -4,6 +4,10 @@ the state's two layouts. The algorithm and its choices are described in `backgro
 which checks input and options at the boundary; `hog_jax.video` composes these pieces with the
 level sets in one scan.
 
+The rules for real video (`background.BackgroundOptions`: warm-up, rho = alpha / w, the variance
+ceiling, the "background_match" decision, shadows) are fields of `KernelOptions` whose defaults turn
+them off; `step_pixels_last` takes the frame's index for the warm-up (None: none).
+
 Layout: weights w (K, N), means mu (K, C, N), variances (K, N), a frame x (C, N) float32, N = H W:
 every per-component quantity is one elementwise loop over the pixels.
 """
@@ -16,7 +20,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 __all__ = ["BackgroundState", "init_state", "log_density_pixels_last", "pixels_last", "scan_pixels_last",
-           "step_pixels_last", "to_public", "KernelOptions"]
+           "step_pixels_last", "to_public", "KernelOptions", "learning_rate", "median3"]
 
 
 class BackgroundState(NamedTuple):
@@ -46,6 +50,14 @@ class KernelOptions(NamedTuple):
     min_variance: jax.Array
     background_ratio: jax.Array
     tr_rule: jax.Array
+    # the rules for real video (`background.BackgroundOptions`); defaults: off (the TR's model)
+    rho_over_weight: jax.Array = False
+    max_variance: jax.Array = float("inf")
+    any_rule: jax.Array = False
+    decision2: jax.Array = 0.0
+    shadow_tau: jax.Array = 1.0
+    warmup: jax.Array = False
+    median3: jax.Array = False
 
 
 def _first_best(values, eligible, larger: bool):
@@ -74,6 +86,19 @@ def _in_background(w, var, best, ratio):
     return ahead <= ratio
 
 
+def _background_components(w, var, ratio):
+    """(K, N) bool: component k is among the first B in the w / sigma order (ties: lower index first),
+    i.e. the weight ranked strictly before it is <= T. w, var (K, N)."""
+    K = w.shape[0]
+    key = w * jax.lax.rsqrt(var)
+    rows = []
+    for k in range(K):
+        ahead = sum((jnp.where((key[j] > key[k]) | ((key[j] == key[k]) & (j < k)), w[j], 0.0)
+                     for j in range(K) if j != k), jnp.zeros_like(w[k]))
+        rows.append(ahead <= ratio)
+    return jnp.stack(rows)
+
+
 def _once(o: KernelOptions, fn, *args):
     """fn(*args), materialised: a conditional (on alpha > 0, always true after `check_options` but
     only known at run time; the other branch returns zeros) whose outputs XLA must store. XLA:CPU
@@ -91,9 +116,17 @@ def _rows_sum(a):
     return sum((a[k] for k in range(1, a.shape[0])), a[0])
 
 
-def step_pixels_last(w, mu, var, x, learn, o: KernelOptions):
+def learning_rate(o: KernelOptions, t=None):
+    """The frame's alpha: o.alpha, or with the warm-up max(alpha, 1 / (t + 1)) at frame t (0-based)."""
+    if t is None:
+        return o.alpha
+    return jnp.where(o.warmup, jnp.maximum(o.alpha, 1.0 / (jnp.asarray(t, jnp.float32) + 1.0)), o.alpha)
+
+
+def step_pixels_last(w, mu, var, x, learn, o: KernelOptions, t=None):
     """One frame with the pixels last: w, var (K, N), mu (K, C, N), x (C, N) float32, learn (N,)
-    bool. Returns the new (w, mu, var) and foreground (N,) bool.
+    bool, t the frame's index in the video (a scalar; None: no warm-up). Returns the new (w, mu, var)
+    and foreground (N,) bool.
 
     Every per-component quantity is a (K, N) array computed by broadcasting (one loop for all K),
     every choice among components an unrolled chain of K comparisons (no argmax: index-carrying
@@ -102,6 +135,7 @@ def step_pixels_last(w, mu, var, x, learn, o: KernelOptions):
     """
     K, C = mu.shape[:2]
     ks = jnp.arange(K)[:, None]
+    alpha = learning_rate(o, t)
 
     def decide(w, mu, var, x):  # the match (step 1 of the module docstring)
         d2 = _rows_sum((x[:, None, :] - jnp.moveaxis(mu, 1, 0)) ** 2)  # (K, N)
@@ -114,28 +148,50 @@ def step_pixels_last(w, mu, var, x, learn, o: KernelOptions):
     def rates(w, var, best, any_match, worst, d2):  # eq. 10's M and rho, the replacement, new weights
         hit = (ks == best) & any_match & learn
         replace = (ks == worst) & ~any_match & learn
-        new_w = jnp.where(replace, o.init_weight, (1.0 - o.alpha) * w + o.alpha * hit)
+        new_w = jnp.where(replace, o.init_weight, (1.0 - alpha) * w + alpha * hit)
         new_w = jnp.where(learn, new_w / _rows_sum(new_w), w)
 
-        def alpha_eta(d2, var):  # rho = alpha eta(X | mu, sigma^2 I), clipped to 1
-            return jnp.minimum(o.alpha * jnp.exp(-0.5 * d2 / var - 0.5 * C * jnp.log(2 * jnp.pi * var)), 1.0)
+        def alpha_eta(d2, var, new_w):  # rho = alpha eta(X | mu, sigma^2 I), clipped to 1
+            return jnp.minimum(alpha * jnp.exp(-0.5 * d2 / var - 0.5 * C * jnp.log(2 * jnp.pi * var)), 1.0)
 
-        def constant(d2, var):  # the TR's rho = alpha needs no exp / log
-            return jnp.broadcast_to(o.alpha, var.shape)
+        def constant(d2, var, new_w):  # the TR's rho = alpha needs no exp / log; or alpha / w (MOG2)
+            over_w = jnp.minimum(alpha / jnp.maximum(new_w, 1e-12), 1.0)
+            return jnp.where(o.rho_over_weight, over_w, jnp.broadcast_to(alpha, var.shape))
 
-        rho = jnp.where(hit, jax.lax.cond(o.use_eta, alpha_eta, constant, d2, var), 0.0)
+        rho = jnp.where(hit, jax.lax.cond(o.use_eta, alpha_eta, constant, d2, var, new_w), 0.0)
         return new_w, hit, replace, rho
 
     best, any_match, worst, d2 = _once(o, decide, w, mu, var, x)
     new_w, hit, replace, rho = _once(o, rates, w, var, best, any_match, worst, d2)
     new_mu = jnp.where(replace[:, None], x[None], mu + rho[:, None] * (x[None] - mu))
     new_var = jnp.where(replace, o.init_variance, jnp.where(
-        hit, jnp.maximum((1.0 - rho) * var + rho * (1.0 - rho) ** 2 * d2, o.min_variance), var))
+        hit, jnp.clip((1.0 - rho) * var + rho * (1.0 - rho) ** 2 * d2, o.min_variance, o.max_variance), var))
 
-    def classify(new_w, new_var, best, any_match):
-        return ~any_match | (~o.tr_rule & ~_in_background(new_w, new_var, best, o.background_ratio))
+    def classify(new_w, new_mu, new_var, best, any_match, d2_new):
+        def stauffer_grimson(in_bg):
+            return ~any_match | (~o.tr_rule & ~_in_background(new_w, new_var, best, o.background_ratio))
 
-    foreground = _once(o, classify, new_w, new_var, best, any_match)
+        def background_match(in_bg):  # any of the first B explains X
+            return ~jnp.any(in_bg & (d2_new < o.decision2 * new_var), axis=0)
+
+        def shadow(in_bg):  # Prati et al. 2003; Zivkovic & van der Heijden 2006 (OpenCV MOG2)
+            mm = _rows_sum(jnp.moveaxis(new_mu * new_mu, 1, 0))  # (K, N) |mu_k|^2
+            xm = _rows_sum(jnp.moveaxis(new_mu * x[None], 1, 0))  # (K, N) X . mu_k
+            a = xm / jnp.maximum(mm, 1e-12)
+            off = _rows_sum(x * x)[None] - a * xm  # |a mu_k - X|^2 at the best a
+            return jnp.any(in_bg & (mm > 0) & (a >= o.shadow_tau) & (a <= 1.0)
+                           & (off < o.decision2 * new_var * a * a), axis=0)
+
+        needs_all = o.any_rule | (o.shadow_tau < 1.0)
+        in_bg = jax.lax.cond(needs_all, lambda: _background_components(new_w, new_var, o.background_ratio)
+                             & (new_w > 0), lambda: jnp.zeros(new_w.shape, bool))
+        foreground = jax.lax.cond(o.any_rule, background_match, stauffer_grimson, in_bg)
+        return foreground & ~jax.lax.cond(o.shadow_tau < 1.0, shadow, lambda b: jnp.zeros(b.shape[1:], bool), in_bg)
+
+    # |X - mu_new|^2 without a second pass over the channels: the replaced component sits at X, the
+    # matched one moved by rho towards it, the others did not move
+    d2_new = jnp.where(replace, 0.0, jnp.where(hit, (1.0 - rho) ** 2 * d2, d2))
+    foreground = _once(o, classify, new_w, new_mu, new_var, best, any_match, d2_new)
     return new_w, new_mu, new_var, foreground
 
 
@@ -152,17 +208,28 @@ def log_density_pixels_last(w, mu, var, x, scale: float = 255.0):
     return jax.nn.logsumexp(log_w + log_comp, axis=0)
 
 
-def scan_pixels_last(w, mu, var, frames, masks, o: KernelOptions):
-    """frames (T, H, W, C) any real dtype, masks (T, H, W) bool -> state, foreground (T, N)."""
+def scan_pixels_last(w, mu, var, frames, masks, o: KernelOptions, t0=0):
+    """frames (T, H, W, C) any real dtype, masks (T, H, W) bool, t0 the first frame's index in the
+    video (the warm-up's clock) -> state, foreground (T, N)."""
     T, C = frames.shape[0], frames.shape[-1]
     xs = jnp.moveaxis(frames.reshape(T, -1, C), 2, 1)  # (T, C, N), still in the input dtype
+    ts = jnp.asarray(t0, jnp.float32) + jnp.arange(T, dtype=jnp.float32)
 
     def body(carry, inp):
-        x, m = inp
-        *state, fg = step_pixels_last(*carry, x.astype(jnp.float32), ~m, o)
+        x, m, t = inp
+        *state, fg = step_pixels_last(*carry, x.astype(jnp.float32), ~m, o, t)
         return tuple(state), fg
 
-    return jax.lax.scan(body, (w, mu, var), (xs, masks.reshape(T, -1)))
+    return jax.lax.scan(body, (w, mu, var), (xs, masks.reshape(T, -1), ts))
+
+
+def median3(masks):
+    """The 3 x 3 median of (..., H, W) bool masks, edges replicated: at least 5 of the 9 neighbours."""
+    H, W = masks.shape[-2:]
+    pad = [(0, 0)] * (masks.ndim - 2) + [(1, 1), (1, 1)]
+    m = jnp.pad(masks.astype(jnp.int8), pad, mode="edge")
+    rows = m[..., 0:H, :] + m[..., 1:H + 1, :] + m[..., 2:H + 2, :]
+    return (rows[..., 0:W] + rows[..., 1:W + 1] + rows[..., 2:W + 2]) >= 5
 
 
 def pixels_last(state: BackgroundState):

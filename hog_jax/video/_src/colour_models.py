@@ -311,7 +311,7 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
                                  person_masks: Bool[ArrayLike, "T H W"], options: BICOptions = BICOptions(), *,
                                  max_pixels: int = 20000, space: str = "rgb",
                                  ignore: Bool[ArrayLike, "T H W"] | None = None,
-                                 ghost_quantile: float | None = 0.01) -> ColourFit:
+                                 ghost_quantile: float | None = None) -> ColourFit:
     """The person's and the background's colour GMMs, each sized by BIC (LEVELSET TR §3.4, eq. 8).
 
     The TR's protocol: the frames after the person has entered, with the person's pixels (the moving
@@ -324,7 +324,8 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
     moving (a *ghost*); taught as the person, the wall's colour would stay "person" for good. So a
     moving pixel whose colour the background GMM explains as well as the background's own pixels (its
     log-density at least the `ghost_quantile` quantile of theirs) teaches neither model. The person is
-    then fitted on min(n, the pixels left) of the rest.
+    then fitted on min(n, the pixels left) of the rest; where the rule would leave too few pixels for
+    BIC's largest candidate, every moving pixel teaches the person (the TR's rule).
 
     Args:
         key: a `jax.random` key (the subsampling and the fits).
@@ -336,8 +337,9 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
             or "chroma" ((Cr, Cb) / 255, as the skin model). Densities of different spaces are not
             comparable: regions that compete in eq. 7 should share one space.
         ignore: (T, H, W) bool, pixels that teach neither model (e.g. the skin, which has its own).
-        ghost_quantile: in (0, 1), the ghost rule's quantile, or None for the TR's rule (every moving
-            pixel teaches the person).
+        ghost_quantile: in (0, 1), the ghost rule's quantile (0.01 for real video,
+            `VideoOptions.real_video()`), or None for the TR's rule (every moving pixel teaches the
+            person).
 
     Returns:
         A `ColourFit`: the structure, the models and both BIC tables.
@@ -382,10 +384,8 @@ def fit_person_background_models(key: Key[Array, ""], frames: Real[ArrayLike, "T
     if ghost_quantile is not None:
         floor = np.quantile(np.asarray(gmm_log_prob(background, seen)), ghost_quantile)
         explained = np.asarray(gmm_log_prob(background, features(person_region))) >= floor
-        person_region = person_region[~explained]
-        if len(person_region) <= need:
-            raise ValueError(f"person_masks: {len(person_region)} moving pixels the background does not explain; "
-                             f"BIC over up to {cands[-1]} components needs more than {need}")
+        if (~explained).sum() > need:
+            person_region = person_region[~explained]
     person, p_scores = fit(k_person, features(rng.choice(person_region, min(n, len(person_region)), replace=False)))
     structure = ColourStructure(int(person.log_weights.shape[0]), int(background.log_weights.shape[0]), space)
     return ColourFit(structure, ColourModels(person, background), p_scores, b_scores)

@@ -160,6 +160,9 @@ class LevelSetOptions(NamedTuple):
             region beats every other by more than this many nats but the warm start does not give it
             the pixel, the frame starts from the re-seeded partition (TR §3.7's "add small curves"),
             >= 0; None: never.
+        fine_it_max: the most iterations at the fine scale after a coarse one, >= 1 (None:
+            `it_max`). The coarse scale has moved the fronts close; a cap here bounds a frame's cost
+            where the fine contour keeps changing by more than `tol` (noisy real frames).
     """
 
     alpha: float = 1.0
@@ -173,6 +176,7 @@ class LevelSetOptions(NamedTuple):
     max_log_ratio: float = 10.0
     refit_every: int = 5
     reseed_margin: float | None = None
+    fine_it_max: int | None = None
 
 
 class LevelSetResult(NamedTuple):
@@ -216,7 +220,8 @@ def check_options(options: LevelSetOptions) -> LevelSetOptions:
         i32(it_max), i32(check_int(o.patience, "patience", min_value=1)),
         f32(check_real(o.max_log_ratio, "max_log_ratio", min_value=0.0, exclusive_min=True)),
         i32(check_int(o.refit_every, "refit_every", min_value=1)),
-        f32(np.inf if o.reseed_margin is None else check_real(o.reseed_margin, "reseed_margin", min_value=0.0)))
+        f32(np.inf if o.reseed_margin is None else check_real(o.reseed_margin, "reseed_margin", min_value=0.0)),
+        i32(it_max if o.fine_it_max is None else check_int(o.fine_it_max, "fine_it_max", min_value=1)))
 
 
 def _dt_limit(alpha, mu, eps):
@@ -330,7 +335,7 @@ def segment_frame(structure: LevelSetStructure, model, data, phi_prev, cold, o) 
         phi = start(small, lambda: resize(phi_prev, structure.coarse) / s)
         phi = _reseed(phi, model.scores(small, phi, o), o)
         phi, it_c, _ = _run(phi, small, model, o, o.alpha / s)
-        phi, it, conv = _run(resize(phi, structure.shape) * s, data, model, o, o.alpha)
+        phi, it, conv = _run(resize(phi, structure.shape) * s, data, model, o._replace(it_max=o.fine_it_max), o.alpha)
     return LevelSetResult(labels_of(phi), phi, it, it_c, conv)
 
 

@@ -61,7 +61,8 @@ from jaxtyping import Array, Bool, Float, Int
 from hog_jax.video._src.blobs import Blobs, ellipse_from_sums
 from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["INIT_RULES", "TrackOptions", "TrackState", "Tracks", "alpha_beta_gains", "track"]
+__all__ = ["INIT_RULES", "TrackOptions", "TrackState", "Tracks", "alpha_beta_gains", "initial_track_state", "track",
+           "track_chunk"]
 
 INIT_RULES = ("top", "bottom", "left", "right", "largest", "left_of_first", "right_of_first")
 _SIDE_RULES = INIT_RULES[5:]  # relative to target 0: not target 0's own rule
@@ -358,14 +359,18 @@ def _step(opts: _Options, state: TrackState, frame):
     return new, out
 
 
-def _track_video(opts: _Options, labels, area, centroid, cov, valid) -> Tracks:
-    M = opts.rules.shape[0]
-    init = TrackState(jnp.zeros((M, 2)), jnp.zeros((M, 2)), jnp.broadcast_to(jnp.eye(2), (M, 2, 2)),
+def initial_track_state(n_targets: int) -> TrackState:
+    """The tracker's state before a video's first frame: M = `n_targets` targets, none acquired."""
+    M = n_targets
+    return TrackState(jnp.zeros((M, 2)), jnp.zeros((M, 2)), jnp.broadcast_to(jnp.eye(2), (M, 2, 2)),
                       jnp.zeros(M, jnp.int32), jnp.zeros(M, jnp.int32), jnp.zeros(M, bool), jnp.asarray(False))
-    return jax.lax.scan(partial(_step, opts), init, (labels, area, centroid, cov, valid))[1]
 
 
-_track_many = jax.jit(jax.vmap(_track_video, in_axes=(None, 0, 0, 0, 0, 0)))
+def _track_video(opts: _Options, init: TrackState, labels, area, centroid, cov, valid) -> tuple[TrackState, Tracks]:
+    return jax.lax.scan(partial(_step, opts), init, (labels, area, centroid, cov, valid))
+
+
+_track_many = jax.jit(jax.vmap(_track_video, in_axes=(None, 0, 0, 0, 0, 0, 0)))
 
 
 def _check_blobs(blobs: Blobs) -> tuple[int, ...]:
@@ -417,6 +422,32 @@ def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left_of_first", "right_
             an unknown rule, a side rule for target 0, options that are not a `TrackOptions`, or
             `options.min_init` above the blob slots K.
     """
+    return track_chunk(blobs, None, init, options)[1]
+
+
+def track_chunk(blobs: Blobs, state: TrackState | None,
+                init: tuple[str, ...] = ("top", "left_of_first", "right_of_first"),
+                options: TrackOptions = TrackOptions()) -> tuple[TrackState, Tracks]:
+    """`track` on a chunk of frames from a given tracker state, for a video read chunk by chunk.
+
+    Tracking the chunks of a video in order, each from the state the previous one returned (the
+    first from None), gives the `Tracks` of `track` on the whole video.
+
+    Args:
+        blobs: the connected components of the chunk's frames, (T, ...) or (B, T, ...)
+            (`connected_blobs`).
+        state: the `TrackState` after the previous chunk (leading (B,) for a batch), or None before
+            the first frame.
+        init: the acquisition rules (`track`).
+        options: the tracker's options (`TrackOptions`).
+
+    Returns:
+        (the `TrackState` after the chunk's last frame, the chunk's `Tracks` as `track` gives them).
+
+    Raises:
+        ValueError: as `track`, and naming `state` for one that is not a `TrackState` of M targets
+            (and B videos).
+    """
     lead = _check_blobs(blobs)
     init = (init,) if isinstance(init, str) else tuple(init)
     if not init:
@@ -435,6 +466,12 @@ def track(blobs: Blobs, init: tuple[str, ...] = ("top", "left_of_first", "right_
         jnp.asarray(bool(o.reacquire)), jnp.float32(o.min_evidence), jnp.float32(o.merge_damping),
         jnp.asarray(rules, jnp.int32))
     arrays = (blobs.labels, blobs.area, blobs.centroid, blobs.cov, blobs.valid)
+    batch = lead[:-1]
+    if state is None:
+        state = jax.tree.map(lambda x: jnp.broadcast_to(x, (*batch, *x.shape)), initial_track_state(len(init)))
+    elif not isinstance(state, TrackState) or np.shape(state.position) != (*batch, len(init), 2):
+        raise ValueError(f"state: expected a TrackState of {len(init)} targets with leading axes {batch}")
     if len(lead) == 2:
-        return _track_many(opts, *arrays)
-    return jax.tree.map(lambda x: x[0], _track_many(opts, *(x[None] for x in arrays)))  # one program for both
+        return _track_many(opts, state, *arrays)
+    state, tracks = _track_many(opts, jax.tree.map(lambda x: x[None], state), *(x[None] for x in arrays))
+    return jax.tree.map(lambda x: x[0], state), jax.tree.map(lambda x: x[0], tracks)  # one program for both

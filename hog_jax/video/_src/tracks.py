@@ -24,10 +24,11 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from hog_jax.video._src.blobs import connected_blobs
 from hog_jax.video._src.stereo import StereoCamera, triangulate
-from hog_jax.video._src.tracking import INIT_RULES, TrackOptions, Tracks, track
+from hog_jax.video._src.tracking import INIT_RULES, TrackOptions, Tracks, TrackState, track_chunk
 from lfd_common import as_array, check_choice, check_int, check_real
 
-__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFaceOptions", "HandFacePositions", "hand_face_positions", "held"]
+__all__ = ["FACE", "HAND", "OTHER_HAND", "HandFaceOptions", "HandFacePositions", "HandFaceState", "hand_face_chunk",
+           "hand_face_positions", "held"]
 
 FACE, HAND, OTHER_HAND = 0, 1, 2  # target ids of the skin tracks
 
@@ -112,6 +113,19 @@ class HandFacePositions(NamedTuple):
     objects_right: Tracks | None
 
 
+class HandFaceState(NamedTuple):
+    """The trackers' state between chunks of a stereo video (`hand_face_chunk`).
+
+    Attributes:
+        skin: the skin targets' `TrackState`, the left view's and the right view's stacked on a
+            leading axis (2, ...) or (2 B, ...) (left first).
+        objects: the objects' `TrackState` likewise (None if no object is tracked).
+    """
+
+    skin: TrackState
+    objects: TrackState | None
+
+
 def _masks(labels: np.ndarray, label: int) -> np.ndarray:
     return labels if labels.dtype == bool else labels == label
 
@@ -173,6 +187,37 @@ def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W
             image size, labels that are neither integers nor booleans, views of other shapes or
             dtypes (`right`), or options that are not a `HandFaceOptions`.
     """
+    return hand_face_chunk(left, right, camera, None, skin_label=skin_label, object_label=object_label,
+                           options=options)[1]
+
+
+def hand_face_chunk(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"],
+                    right: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W"], camera: StereoCamera,
+                    state: HandFaceState | None = None, *, skin_label: int = 2, object_label: int = 3,
+                    options: HandFaceOptions = HandFaceOptions()) -> tuple[HandFaceState, HandFacePositions]:
+    """`hand_face_positions` on a chunk of frames, from the trackers' state after the previous chunk.
+
+    The chunks of a video in order, each from the state the previous one returned (the first from
+    None), give the `HandFacePositions` of `hand_face_positions` on the whole video.
+
+    Args:
+        left: (T, H, W) or (B, T, H, W) the chunk's labels of the left view (`hand_face_positions`).
+        right: the right view, of the shape and dtype of `left`.
+        camera: the rectified pair (`StereoCamera`); its image size must be H x W.
+        state: the `HandFaceState` after the previous chunk, or None before the first frame.
+        skin_label: the label of skin pixels.
+        object_label: the label of object pixels.
+        options: blobs, acquisition and tracker options (`HandFaceOptions`).
+
+    Returns:
+        (the `HandFaceState` after the chunk, the chunk's `HandFacePositions`).
+
+    Raises:
+        ValueError: as `hand_face_positions`, and naming `state` for one that is not a
+            `HandFaceState` of these targets and views.
+    """
+    if state is not None and not isinstance(state, HandFaceState):
+        raise ValueError(f"state: expected a HandFaceState or None, got {type(state).__name__}")
     if not isinstance(camera, StereoCamera):
         raise ValueError(f"camera: expected a hog_jax.video.StereoCamera, got {type(camera).__name__}")
     views = {}
@@ -196,15 +241,18 @@ def hand_face_positions(left: Int[ArrayLike, "*T H W"] | Bool[ArrayLike, "*T H W
     row_tol = 0.05 * H if o.max_row_diff_px is None else float(o.max_row_diff_px)
     batch = views["left"].shape[0] if views["left"].ndim == 4 else 0
     both = np.concatenate([views["left"], views["right"]]) if batch else np.stack([views["left"], views["right"]])
-    skin = track(connected_blobs(_masks(both, skin_label), o.max_blobs, o.min_area), o.init, o.tracking)
+    skin_state, skin = track_chunk(connected_blobs(_masks(both, skin_label), o.max_blobs, o.min_area),
+                                   None if state is None else state.skin, o.init, o.tracking)
     skin_left, skin_right = _views(skin, batch)
-    objects_left = objects_right = None
+    objects_left = objects_right = object_state = None
     if o.n_objects and both.dtype != bool:
-        objects = track(connected_blobs(both == object_label, o.max_blobs, o.min_area), ("largest",) * o.n_objects,
-                        dataclasses.replace(o.tracking, min_init=1))
+        object_state, objects = track_chunk(connected_blobs(both == object_label, o.max_blobs, o.min_area),
+                                            None if state is None else state.objects, ("largest",) * o.n_objects,
+                                            dataclasses.replace(o.tracking, min_init=1))
         objects_left, objects_right = _views(objects, batch)
     xy, xyz, found, found_3d, observed = _combine(camera, skin_left, skin_right, row_tol)
-    return HandFacePositions(xy, xyz, found, found_3d, observed, skin_left, skin_right, objects_left, objects_right)
+    return HandFaceState(skin_state, object_state), HandFacePositions(
+        xy, xyz, found, found_3d, observed, skin_left, skin_right, objects_left, objects_right)
 
 
 def held(values: np.ndarray, found: np.ndarray) -> np.ndarray:

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 import hog_jax
-from lfd_jax.cli._src.skin import photo_skin_model
+from lfd_jax.cli._src.skin import skin_model
 from lfd_common import markdown_table, progress
 from lfd_jax.grasp._src.knn import hog_features, knn_predict
 from lfd_jax.cli._src.plotting import plt
@@ -181,7 +181,7 @@ def run(args) -> int:
     else:
         db = load_database(path)
     knn = hog_jax.fit(db.features, db.views.labels, db.views.euler, n_classes=len(db.grasps), seed=0)
-    skin = photo_skin_model(args.skin_model, args.skin_data)
+    skin = skin_model(args.skin_model, args.skin_data)
     args.out.mkdir(parents=True, exist_ok=True)
     k = check_int(args.k, "k", min_value=1, max_value=len(db.features))
     rows = []

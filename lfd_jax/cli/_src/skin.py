@@ -1,22 +1,13 @@
-"""The skin colour models of `lfd-jax grasp` and `lfd-jax video`, fitted on labelled skin pixels in the
-UCI Skin Segmentation layout (`lfd_jax.load_uci_pixels`) or read from a file.
-
-The two pipelines model skin differently, so they take different models: the grasp pipeline's
-`hog_jax.segment` a chroma `SkinModel` (skin and background mixtures and a threshold), fitted with its
-threshold chosen on held-out pixels (`lfd_jax.fit_thresholded_skin`); the video pipeline's region scores
-a skin GMM over RGB / 255 (`hog_jax.video.fit_skin`, LEVELSET TR §3.3), which `hog_jax.save_skin_model`
-cannot store.
-"""
+"""The skin colour model of `lfd-jax grasp` and `lfd-jax video`: the one skin model of stills and video
+(`hog_jax.SkinModel`), read from a file (`hog_jax.save_skin_model`) or fitted on the real labelled pixels
+of a data folder (`lfd_jax.fit_real_skin_model`: the UCI Skin Segmentation file, and the HGR hand photos
+when the folder holds them)."""
 from __future__ import annotations
 
 from pathlib import Path
 
-import jax
-import jax.numpy as jnp
-
 import hog_jax
-from hog_jax.video import fit_skin
-from lfd_jax._src.skin import UCI_FILE, fit_thresholded_skin, load_uci_pixels
+from lfd_jax._src.skin import UCI_FILE, fit_real_skin_model
 
 
 def uci_file(folder: Path) -> Path:
@@ -28,18 +19,10 @@ def uci_file(folder: Path) -> Path:
     return path
 
 
-def photo_skin_model(skin_model: Path | None, skin_data: Path) -> hog_jax.SkinModel:
-    """The chroma skin model of the grasp pipeline: the file `skin_model` (`hog_jax.save_skin_model`),
-    else fitted on the UCI pixels of `skin_data` with its threshold chosen on held-out UCI pixels
-    (`lfd_jax.fit_thresholded_skin`) and stored in the model."""
-    if skin_model is not None:
-        return hog_jax.load_skin_model(skin_model)
-    rgb, is_skin = load_uci_pixels(uci_file(skin_data))
-    fitted = fit_thresholded_skin(rgb, is_skin)
-    return fitted.model._replace(threshold=jnp.float32(fitted.threshold))
-
-
-def video_skin_gmm(skin_data: Path, seed: int = 0) -> hog_jax.GMM:
-    """The video pipeline's skin GMM (RGB / 255, 4 components) fitted on the skin pixels of `skin_data`."""
-    rgb, is_skin = load_uci_pixels(uci_file(skin_data))
-    return fit_skin(jax.random.key(seed), rgb[is_skin])
+def skin_model(skin_model_file: Path | None, skin_data: Path) -> hog_jax.SkinModel:
+    """The file `skin_model_file` (`hog_jax.save_skin_model`), else the model fitted on the real pixels of
+    `skin_data` (`lfd_jax.fit_real_skin_model`)."""
+    if skin_model_file is not None:
+        return hog_jax.load_skin_model(skin_model_file)
+    uci_file(skin_data)
+    return fit_real_skin_model(skin_data)
