@@ -80,6 +80,17 @@ def test_streamed_front_end_equals_the_whole_video_run(skin, models):
     _equal(seg, hv.segment_stereo(models, left, right, START, CAMERA, OPTIONS, TRACKING))
 
 
+def test_mono_tracks_do_not_depend_on_the_chunks(models):
+    """`track_mono` in chunks of 5 (the tracker's state carried) equals one chunk of the whole clip; the
+    face is tracked on the segmented frames and nothing before `start` counts as tracked."""
+    left, _ = _stereo()
+    whole = hv.track_mono(models, left, START, OPTIONS, TRACKING, chunk=T)
+    _equal(hv.track_mono(models, left, START, OPTIONS, TRACKING, chunk=CHUNK), whole)
+    assert not whole.tracked[:START].any() and whole.tracked[START:, hv.FACE].all()
+    with pytest.raises(ValueError, match="chunk"):
+        hv.track_mono(models, left, START, OPTIONS, TRACKING, chunk=0)
+
+
 def test_segment_chunk_carries_the_state_and_names_bad_input(models):
     left, _ = _stereo()
     state = hv.init_segment_state(left[0], OPTIONS)
