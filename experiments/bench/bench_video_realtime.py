@@ -12,13 +12,14 @@ Clips (`--clips`, frames/s measured on the first `--frames` frames of each, all 
 
 Sides (`SIDES`; each one function of the frames, one call per repeat, the sides in turn, after one
 warm-up call of each timed apart; median of `--repeats`):
-- `ours_front_end`: `hog_jax.video` mono, as `lfd-jax video` runs it: `segment_recording` (the
-  background model, the colour models' scores and the level sets, one scan, every frame from the
-  second on segmented) -> `connected_blobs` of the skin label -> `track` (face, hand, other hand).
-  The recording's colour models (`fit_video_models`, once per recording, its first third the
-  learning phase) and the skin GMM (`fit_skin` on the UCI skin pixels) are fitted before and timed
-  apart (`fit_models_s`). To time another front end, replace `ours_front_end` (a `Side`).
-- `ours_background`: `hog_jax.video.run_background` alone (Stauffer–Grimson, TR defaults).
+- `ours_front_end`: `hog_jax.video` mono, as `lfd-jax video` runs it: `track_mono` with
+  `VideoOptions.real_video()` (the background model, the colour models' scores and the level sets,
+  one scan, every frame from the second on segmented; `connected_blobs` of the skin label; `track`
+  of face, hand and other hand; `hand_ends`). The skin model (`lfd_jax.fit_real_skin_model`) and the
+  recording's colour models (`fit_video_models`, its first third the learning phase) are fitted
+  before and timed apart (`fit_models_s`). To time another front end, replace `ours_front_end`.
+- `ours_background`: `hog_jax.video.run_background` alone, the setting for real video
+  (`BackgroundOptions.real_video()`, K = 5, with its 3 x 3 median).
 - `mog2`, `knn`: OpenCV `createBackgroundSubtractorMOG2` / `KNN` with their defaults, `apply` per frame
   (BGR frames, converted before the timing); a fresh subtractor per repeat, built untimed.
 - `mediapipe_hands`: MediaPipe Hands 0.10.21 in video mode (`experiments.peers.mediapipe_hands`,
@@ -61,7 +62,6 @@ SIZE = (240, 320)  # H, W
 REACH_CLIP = "reach_grasp/teaser_movement.gif"
 SBI_FOLDER = "sbi_indoor/HumanBody2/input"
 GTEA_FOLDER = "gtea_grasps"
-UCI_FILE = "skin_nonskin_uci.tsv"
 HAND_PARTS = ("right_hand", "left_hand")
 REAL_TIME_FPS = 25.0
 IOU_LABEL = {"iou50": ">= 0.5", "iou30": ">= 0.3"}
@@ -152,48 +152,36 @@ def load_sbi(cfg: BenchConfig, n: int) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ sides
-def skin_gmm(cfg: BenchConfig):
-    """The video pipeline's skin GMM (`hog_jax.video.fit_skin`) on the UCI skin pixels, as `lfd-jax video` fits it."""
-    import jax
-
-    from hog_jax.video import fit_skin
-    from lfd_jax import load_uci_pixels
-
-    rgb, is_skin = load_uci_pixels(Path(cfg.data_dir) / UCI_FILE)
-    return fit_skin(jax.random.key(cfg.seed), rgb[is_skin])
-
-
 def ours_front_end(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
-    """Ours: segment_recording -> connected_blobs(skin) -> track, the recording's models fitted before
+    """Ours: the mono front end for real video (`track_mono`), the recording's models fitted before
     (their time in `info["fit_models_s"]`)."""
     import jax
 
     import hog_jax.video as hv
+    from lfd_jax import fit_real_skin_model
 
-    options = hv.VideoOptions()
+    options = hv.VideoOptions.real_video()
     began = time.perf_counter()
-    skin = skin_gmm(cfg)
+    skin = fit_real_skin_model(cfg.data_dir, seed=cfg.seed)
     start = max(options.person_frames + 1, len(frames) // 3)
     models, _ = hv.fit_video_models(jax.random.key(cfg.seed), skin, frames, start, options)
     jax.block_until_ready(models)
     info["fit_models_s"] = time.perf_counter() - began
-    tracking = hv.TrackOptions(min_init=2)
-
-    def run(_, x):
-        labels = hv.segment_recording(models, x, 1, options).labels
-        blobs = hv.connected_blobs(labels == hv.SKIN, max_blobs=8, min_area=4)
-        return hv.track(blobs, ("top", "left_of_first", "right_of_first"), tracking)
-
-    return Side("segment_recording (background, colour scores, level sets; frames 1..T-1) + connected_blobs "
-                "(skin) + track (face, hand, other hand); models fitted before, apart", lambda _: None, run, True)
+    tracking = hv.HandFaceOptions(min_area=max(4, round(1e-3 * frames.shape[1] * frames.shape[2])))
+    return Side("track_mono with VideoOptions.real_video() (background K = 5 with warm-up, shadows; colour "
+                "scores; level sets; frames 1..T-1 segmented) -> connected_blobs (skin) -> track (face, hand, "
+                "other hand) -> hand_ends; the skin model (fit_real_skin_model) and the recording's colour "
+                "models fitted before, apart", lambda _: None,
+                lambda _, x: hv.track_mono(models, x, 1, options, tracking, chunk=len(x)), True)
 
 
 def ours_background(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
-    """Ours: the Stauffer–Grimson background model alone (`run_background`, TR defaults)."""
-    from hog_jax.video import run_background
+    """Ours: the background model alone (`run_background`) with the setting for real video."""
+    from hog_jax.video import BackgroundOptions, BackgroundStructure, run_background
 
-    return Side("run_background (Stauffer-Grimson, K = 3, alpha = 0.05), foreground masks",
-                lambda _: None, lambda _, x: run_background(x)[1], True)
+    structure, options = BackgroundStructure.real_video(), BackgroundOptions.real_video()
+    return Side("run_background (BackgroundOptions.real_video(), K = 5, 3 x 3 median), foreground masks",
+                lambda _: None, lambda _, x: run_background(x, structure=structure, options=options)[1], True)
 
 
 def _opencv(make_name: str) -> Callable[[BenchConfig, np.ndarray, dict], Side]:

@@ -171,8 +171,9 @@ def front_end(key: Key[Array, ""], skin: SkinModel, left: Real[ArrayLike, "T H W
               tracking: HandFaceOptions = HandFaceOptions(), pad_multiple: int = 1) -> FrontEndResult:
     """The video front end on one stereo recording: region labels, hand and face, the hand's tracks.
 
-    The whole recording is one chunk of `stream_front_end`. Pads both views (`pad_frames`), learns the recording's colour models from the frames before
-    `start` (`fit_video_models`, LEVELSET TR §3.4-3.5), segments both views and tracks hand and face
+    The whole recording is one chunk of `stream_front_end`. Pads both views (`pad_frames`), learns
+    the recording's colour models from the frames before `start` (`fit_video_models`, LEVELSET TR
+    §3.4-3.5), segments both views and tracks hand and face
     (`segment_stereo`, TR §3-5 and LfD 2009 §III-A), cuts every per-frame output back to T frames and
     reads the right hand's tracks (`hand_tracks`).
 

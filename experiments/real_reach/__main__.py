@@ -1,0 +1,3 @@
+from experiments.real_reach.stages import main
+
+main()
