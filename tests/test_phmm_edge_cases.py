@@ -92,7 +92,7 @@ def test_values_that_overflow_inside_are_rejected(fitted):
 def test_recognize_rejects_bad_steps(fitted):
     _, G, _, _, _, ph = fitted
     bad = {"n_steps": (0, -1, 2.0), "face_steps": (-1, 2.0, "1"),
-           "epsilon": (-0.1, float("nan")), "lattice_points": (0,)}
+           "epsilon": (-0.1, float("nan")), "lattice_points": (0,), "chunk_size": (0, 2.0)}
     for name, values in bad.items():
         for value in values:
             with pytest.raises(ValueError, match=f"^{name}:"):

@@ -165,6 +165,42 @@ def test_recognize_reaches_the_maximum_of_a_dense_scan():
     np.testing.assert_allclose(rec.loglik[:, 0], P.phmm_log_likelihood(phmm, tests, rec.phi[:, 0]), rtol=1e-5)
 
 
+def walk_batch(n):
+    """(X (n, T, 2), lengths (n,)): `phase_walk`s for n random φ in [0, 1], padded."""
+    rng = np.random.default_rng(9)
+    return pad_sequences([phase_walk(rng, phi, 1)[0][0] for phi in rng.uniform(0, 1, n)], None, dim=2)
+
+
+def test_search_memory_does_not_grow_with_the_batch(walk_phmm):
+    """With the chunk size fixed, 64 sequences need no more working memory than 4, beyond a copy of
+    the larger inputs and outputs (searched as one batch, 64 need about ten times as much)."""
+    phmm, _ = walk_phmm
+    X, lengths = walk_batch(64)
+
+    def memory(batch):
+        X_b, lengths_b = jnp.asarray(X[:batch], jnp.float32), jnp.asarray(lengths[:batch])
+        return P.search_parameters.lower(phmm, X_b, lengths_b, 0.1, 6, 13, 3, 4).compile().memory_analysis()
+
+    small, large = memory(4), memory(64)
+    batch_bytes = (large.argument_size_in_bytes - small.argument_size_in_bytes
+                   + large.output_size_in_bytes - small.output_size_in_bytes)
+    assert large.temp_size_in_bytes - small.temp_size_in_bytes <= batch_bytes, (small, large)
+
+
+def test_recognize_in_chunks_equals_one_chunk(walk_phmm):
+    """64 sequences searched 4 at a time give the labels, φ and log-likelihoods of one search of all
+    64 (to float round-off: the products are blocked differently)."""
+    phmm, _ = walk_phmm
+    other = P.PHMM(phmm.local.replace(means=phmm.local.means * np.array([1.0, -1.0])), phmm.grid_shape)
+    X, lengths = walk_batch(64)
+    X[1::2] *= np.array([1.0, -1.0])  # every other sequence mirrored: both labels occur
+    chunked = P.recognize([phmm, other], X, lengths, lattice_points=13, chunk_size=4)
+    whole = P.recognize([phmm, other], X, lengths, lattice_points=13, chunk_size=64)
+    np.testing.assert_array_equal(chunked.label, whole.label)
+    np.testing.assert_allclose(chunked.loglik, whole.loglik, rtol=1e-5, atol=1e-3)  # nats
+    np.testing.assert_allclose(chunked.phi, whole.phi, atol=1e-3)
+
+
 def test_solve_spd_matches_numpy():
     from lfd_common import solve_spd
     rng = np.random.default_rng(6)

@@ -339,6 +339,14 @@ def _secant_update(hess, s, y):
 
 _FACE_MARGIN = 0.15  # how near a grid line the probe of `search_parameters` looks
 _PROBE_DISTANCES = (0.03, 0.075)  # how far across it the probes lie (at least)
+# Sequences searched at once by default (`recognize`'s `chunk_size`): the search's memory is that of
+# one chunk, whatever the batch (about 1.4 MB per sequence of 100 x 21 frames, 20 states). Much
+# smaller chunks run slower per sequence; from about 100 on, as fast as the whole batch at once
+# (2-core CPU, d = 3 PHMM of a 3 x 3 x 3 grid, 540 sequences).
+DEFAULT_CHUNK_SIZE = 128
+# Lattice points x sequences scored at once: each pair needs a few (T, N) emission and message arrays,
+# so the lattice's memory is bounded whatever its size (13^3 = 2197 points for a 3 x 3 x 3 grid).
+_LATTICE_PAIRS = 2048
 
 
 def _default_lattice(grid_shape: tuple[int, ...]) -> tuple[int, ...]:
@@ -346,10 +354,31 @@ def _default_lattice(grid_shape: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(5 if g == 2 else 6 * (g - 1) + 1 for g in grid_shape)  # else 6 intervals per cell
 
 
-@partial(jax.jit, static_argnames=("n_steps", "lattice_points", "face_steps"))
+def _blocks(a: Array, size: int) -> Array:
+    """(n, ...) -> (k, m, ...): k = ceil(n / size) blocks of m <= size rows, as even as possible, the
+    last row repeated to fill them (a valid row, cut off afterwards)."""
+    count = -(-a.shape[0] // size)
+    rows = -(-a.shape[0] // count)
+    padded = jnp.pad(a, [(0, count * rows - a.shape[0])] + [(0, 0)] * (a.ndim - 1), mode="edge")
+    return padded.reshape(count, rows, *a.shape[1:])
+
+
+def _lattice_scores(phmm: PHMM, X, lengths, lattice) -> Float[Array, "M B"]:
+    """Log-likelihood of every sequence at every lattice point (M, d), block by block of the lattice
+    (`lax.map`) so that a block holds about `_LATTICE_PAIRS` (point, sequence) pairs."""
+
+    def at_point(phi):  # every sequence scored under one interpolated model (no per-sequence models)
+        hmm = interpolate(phmm, phi)
+        return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
+
+    blocks = _blocks(lattice, max(1, _LATTICE_PAIRS // X.shape[0]))
+    return jax.lax.map(jax.vmap(at_point), blocks).reshape(-1, X.shape[0])[:lattice.shape[0]]
+
+
+@partial(jax.jit, static_argnames=("lattice_points", "chunk_size"))
 def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, " B"], epsilon: float | Array,
-                      n_steps: int, lattice_points: int | tuple[int, ...], face_steps: int
-                      ) -> tuple[Float[Array, "B d"], Float[Array, " B"]]:
+                      n_steps: int | Array, lattice_points: int | tuple[int, ...], face_steps: int | Array,
+                      chunk_size: int = DEFAULT_CHUNK_SIZE) -> tuple[Float[Array, "B d"], Float[Array, " B"]]:
     """The parameter search of one PHMM on a checked, padded batch: the jitted kernel of `recognize`.
 
     φ* = argmax over [−ε, 1+ε]^d of log p(x | λ^φ) for every sequence (PHMM eq. 3): the best point
@@ -358,31 +387,42 @@ def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, 
     the likelihood), then probes across the nearest grid lines and `face_steps` more steps. No
     input checks.
 
-    Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
-    sequence's gradient, and one reverse pass of that gradient along coordinate k gives row k of
-    every sequence's d x d Hessian at once.
+    The batch is searched in chunks of at most `chunk_size` sequences (`lax.map`) and the lattice in
+    blocks, so memory grows with neither the batch nor the lattice; every sequence's search is
+    independent, so the chunks change the results only by float round-off (products blocked
+    differently).
 
     Args:
         phmm: The PHMM.
         X: (B, T, D) padded sequences in the compute dtype.
         lengths: (B,) int32 frames per sequence.
         epsilon: ε >= 0, how far the search may leave [0, 1]^d (traced).
-        n_steps: Quasi-Newton steps from the lattice (static).
+        n_steps: Quasi-Newton steps from the lattice, >= 1 (traced).
         lattice_points: Lattice points per parameter, one count for all or one each (static).
-        face_steps: Steps after the probes across the grid lines (static; 0: no probes).
+        face_steps: Steps after the probes across the grid lines (traced; 0: no probes).
+        chunk_size: Sequences searched at once, >= 1 (static).
 
     Returns:
         (φ (B, d), log-likelihood at φ (B,)).
     """
+    search = lambda chunk: _search_chunk(phmm, *chunk, epsilon, n_steps, lattice_points, face_steps)  # noqa: E731
+    phi, loglik = jax.lax.map(search, (_blocks(X, chunk_size), _blocks(lengths, chunk_size)))
+    return phi.reshape(-1, phmm.n_params)[:X.shape[0]], loglik.reshape(-1)[:X.shape[0]]
+
+
+def _search_chunk(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points, face_steps: int):
+    """`search_parameters` on one chunk of sequences (B, T, D).
+
+    Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
+    sequence's gradient, and one reverse pass of that gradient along coordinate k gives row k of
+    every sequence's d x d Hessian at once. The climb from the lattice and the climb from the probes
+    are two rounds of one loop, with the step counts traced, so the Hessian and the step are
+    compiled once, not once per climb (their reverse passes through the forward scan are most of
+    the compile time), and other step counts compile nothing new.
+    """
     d = phmm.n_params
     lower, upper = -epsilon, 1.0 + epsilon
     lattice = start_lattice(d, lattice_points)  # (M, d)
-
-    def at_point(phi):  # every sequence scored under one interpolated model (no per-sequence models)
-        hmm = interpolate(phmm, phi)
-        return inference.forward_loglik(inference.chain(hmm), emission_columns(hmm, X), lengths)
-
-    scores = jax.vmap(at_point)(lattice)  # (M, B)
 
     def gradient(phi):
         loglik, pullback = jax.vjp(lambda p: batch_phmm_log_likelihood(phmm, X, lengths, p), phi)
@@ -394,7 +434,7 @@ def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, 
         rows = jax.vmap(lambda e: pullback(e)[0])(basis)  # (d, B, d): rows[k, b] = ∂g_bk/∂φ_b
         return loglik, grad, jnp.swapaxes(rows, 0, 1)
 
-    def step(carry, _):
+    def step(_, carry):
         phi, loglik, grad, hess, damping = carry
         candidate = jnp.clip(phi + _newton_direction(grad, hess, phi, lower, upper, damping), lower, upper)
         c_grad, c_loglik = gradient(candidate)
@@ -404,21 +444,14 @@ def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, 
         # A rejected step still tells the secant model about the curvature along it.
         hess = jnp.where(jnp.all(jnp.isfinite(c_hess), axis=(1, 2))[:, None, None], c_hess, hess)
         damping = jnp.where(better, jnp.maximum(damping * 0.1, 1e-8), damping * 10.0)
-        return (pick(candidate, phi), pick(c_loglik, loglik), pick(c_grad, grad), hess, damping), None
+        return pick(candidate, phi), pick(c_loglik, loglik), pick(c_grad, grad), hess, damping
 
-    def ascend(init, steps):
-        (phi, loglik, *_), _ = jax.lax.scan(step, init, None, length=steps)
-        return phi, loglik
-
-    start = lattice[jnp.argmax(scores, axis=0)]
-    damping = jnp.full(start.shape[0], 1e-3, start.dtype)
-    phi, loglik = ascend((start, *with_hessian(start), damping), n_steps)
-    if face_steps > 0:
+    def probe_restart(phi, loglik):
         # Covariances and durations stop changing at the faces of [0, 1]^d while the means go on, and
         # the d-linear interpolation changes cell at the grid lines between, so the likelihood has
         # kinks there and often a second maximum just across. Probe the mirror image across the
         # nearest grid line of every coordinate near one (one at a time and all together, at two
-        # distances at least), restart from the best of these where it beats φ, and climb again.
+        # distances at least) and restart from the best of these where it beats φ.
         cells = jnp.asarray(phmm.grid_shape, phi.dtype) - 1.0
         face = jnp.clip(jnp.round(phi * cells), 0.0, cells) / cells  # the nearest grid line of each coordinate
         offset = phi - face
@@ -430,24 +463,39 @@ def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, 
         n_probes = len(_PROBE_DISTANCES) * (d + 1)
         probes = jnp.clip(probes.reshape(n_probes, -1, d), lower, upper)
         tiled = lambda a: jnp.tile(a, (n_probes,) + (1,) * (a.ndim - 1))  # noqa: E731
-        probe_values = batch_phmm_log_likelihood(phmm, tiled(X), tiled(lengths), probes.reshape(-1, d)).reshape(n_probes, -1)
-        probe_values = jnp.where(jnp.isfinite(probe_values), probe_values, -jnp.inf)
-        take = jnp.max(probe_values, axis=0) > loglik
-        restart = jnp.where(take[:, None], probes[jnp.argmax(probe_values, axis=0), jnp.arange(phi.shape[0])], phi)
-        phi2, loglik2 = ascend((restart, *with_hessian(restart), damping), face_steps)
-        better = loglik2 > loglik
-        phi, loglik = jnp.where(better[:, None], phi2, phi), jnp.where(better, loglik2, loglik)
+        values = batch_phmm_log_likelihood(phmm, tiled(X), tiled(lengths), probes.reshape(-1, d)).reshape(n_probes, -1)
+        values = jnp.where(jnp.isfinite(values), values, -jnp.inf)
+        take = jnp.max(values, axis=0) > loglik
+        return jnp.where(take[:, None], probes[jnp.argmax(values, axis=0), jnp.arange(phi.shape[0])], phi)
+
+    n_rounds = jnp.where(face_steps > 0, 2, 1)
+
+    def climb(index, carry):
+        """Round `index`: its steps from `start`, kept (after the first round) where they beat the
+        best so far; then the next round's start from the probes (none after the last round)."""
+        start, best_phi, best_loglik = carry
+        damping = jnp.full(start.shape[0], 1e-3, start.dtype)
+        steps = jnp.where(index == 0, n_steps, face_steps)
+        phi, loglik, *_ = jax.lax.fori_loop(0, steps, step, (start, *with_hessian(start), damping))
+        keep = (index == 0) | (loglik > best_loglik)
+        phi, loglik = jnp.where(keep[:, None], phi, best_phi), jnp.where(keep, loglik, best_loglik)
+        restart = jax.lax.cond(index + 1 < n_rounds, probe_restart, lambda p, _: p, phi, loglik)
+        return restart, phi, loglik
+
+    start = lattice[jnp.argmax(_lattice_scores(phmm, X, lengths, lattice), axis=0)]
+    init = (start, start, jnp.full(start.shape[0], -jnp.inf, start.dtype))
+    _, phi, loglik = jax.lax.fori_loop(0, n_rounds, climb, init)
     return phi, loglik
 
 
-def _search_shard(phmm: PHMM, epsilon, X, lengths, *, n_steps: int, lattice_points: int, face_steps: int):
+def _search_shard(phmm: PHMM, epsilon, n_steps, face_steps, X, lengths, *, lattice_points: int, chunk_size: int):
     """`search_parameters` on one shard's sequences of a batch split over a mesh."""
-    return search_parameters(phmm, X, lengths, epsilon, n_steps, lattice_points, face_steps)
+    return search_parameters(phmm, X, lengths, epsilon, n_steps, lattice_points, face_steps, chunk_size)
 
 
 def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = None, epsilon: float = 0.1,
               n_steps: int = 6, lattice_points: int | None = None, face_steps: int = 3, *,
-              mesh: Mesh | None = None) -> Recognition:
+              chunk_size: int = DEFAULT_CHUNK_SIZE, mesh: Mesh | None = None) -> Recognition:
     """Classify sequences and estimate their parameters (PHMM eq. 3, §III-B2; BMVC §4.2).
 
     For each PHMM k, φ_k = argmax over [−ε, 1+ε]^d of log p(x | λ_k^φ); the label is the k with the
@@ -462,6 +510,9 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         lattice_points: Start-lattice points per parameter, >= 1; None: 5 for a grid of 2 points,
             6 intervals per grid cell for more.
         face_steps: Steps after the probes across the nearest grid lines, >= 0 (0: no probe).
+        chunk_size: Sequences searched at once, >= 1: a larger batch is searched chunk after chunk
+            (`lax.map`), so memory is bounded by one chunk and grows with neither the batch nor
+            the lattice; the results do not depend on it.
         mesh: A `jax.sharding.Mesh` (or None: one device). The sequences are split over its
             devices (padded to the mesh, the padding cut off), each device searches φ for its own
             (every sequence's search is independent); the result equals the one-device result.
@@ -471,10 +522,10 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
         `Recognition`: label (B,), phi (B, K, d), loglik (B, K).
 
     Raises:
-        ValueError: Naming the argument: n_steps < 1, face_steps < 0, lattice_points < 1, a
-            negative epsilon, models that are not PHMMs or differ in D or d (`phmms[k]`), `X` /
-            `lengths` as in `log_likelihood`, and data (or an epsilon) so far from a model's means
-            that the search would overflow the compute dtype.
+        ValueError: Naming the argument: n_steps < 1, face_steps < 0, lattice_points < 1,
+            chunk_size < 1, a negative epsilon, models that are not PHMMs or differ in D or d
+            (`phmms[k]`), `X` / `lengths` as in `log_likelihood`, and data (or an epsilon) so far
+            from a model's means that the search would overflow the compute dtype.
 
     Notes:
         The search starts from the best point of a lattice over [0, 1]^d and takes `n_steps`
@@ -502,6 +553,7 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
     epsilon = check_real(epsilon, "epsilon", min_value=0.0)
     n_steps = check_int(n_steps, "n_steps", min_value=1)
     face_steps = check_int(face_steps, "face_steps", min_value=0)
+    chunk_size = check_int(chunk_size, "chunk_size", min_value=1)
     if lattice_points is not None:
         lattice_points = check_int(lattice_points, "lattice_points", min_value=1)
     X, lengths = pad_sequences(X, lengths, dim=phmms[0].local.dim)
@@ -514,10 +566,11 @@ def recognize(phmms: PHMM | Sequence[PHMM], X: Sequences, lengths: Lengths = Non
     X, lengths = to_device(X, lengths)
     lattice = lambda p: lattice_points or _default_lattice(p.grid_shape)  # noqa: E731
     if mesh is None:
-        results = [search_parameters(p, X, lengths, epsilon, n_steps, lattice(p), face_steps) for p in phmms]
+        results = [search_parameters(p, X, lengths, epsilon, n_steps, lattice(p), face_steps, chunk_size)
+                   for p in phmms]
     else:
-        static = lambda p: (("n_steps", n_steps), ("lattice_points", lattice(p)), ("face_steps", face_steps))  # noqa: E731
-        results = [map_batch(_search_shard, mesh, (p, epsilon), (X, lengths), static=static(p)) for p in phmms]
+        results = [map_batch(_search_shard, mesh, (p, epsilon, n_steps, face_steps), (X, lengths),
+                             static=(("lattice_points", lattice(p)), ("chunk_size", chunk_size))) for p in phmms]
     phi = jnp.stack([r[0] for r in results], axis=1)
     loglik = jnp.stack([r[1] for r in results], axis=1)
     return Recognition(jnp.argmax(loglik, axis=1), phi, loglik)
