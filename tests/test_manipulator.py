@@ -219,6 +219,24 @@ def test_bad_input_raises_naming_the_argument(barrett, kwargs, match):
         solve_ik(chain, **args)
 
 
+@pytest.mark.parametrize("far", [1e39, 2e38])  # beyond float32; each coordinate within it, the distance not
+def test_targets_beyond_the_float32_range_are_rejected_naming_target_pos(barrett, far):
+    _, _, chain = barrett
+    with pytest.raises(ValueError, match="^target_pos: expected positions within 1.7e.38 m"):
+        solve_ik(chain, np.full((2, 3), far), np.tile(np.eye(3), (2, 1, 1)))
+
+
+def test_far_but_representable_targets_give_a_finite_error(barrett):
+    """Squared, these distances overflow float32 (beyond ~1.8e19 m); the error is still their float64 value."""
+    model, layout, chain = barrett
+    target_pos = np.array([[1e20, 0.0, 1.0], [-3e30, 1e30, 0.0], [9e37, -9e37, 0.0]])
+    res = solve_ik(chain, target_pos, np.tile(np.eye(3), (3, 1, 1)), iterations=5, n_restarts=1, rounds=1)
+    q = np.asarray(res.q, float)
+    assert np.all(np.isfinite(q)) and _within_limits(q) and not np.any(np.asarray(res.reachable))
+    pos, _ = _mujoco_site(model, layout, q)
+    np.testing.assert_allclose(np.asarray(res.pos_error, float), np.linalg.norm(target_pos - pos, axis=1), rtol=1e-6)
+
+
 def test_bad_scene_and_chain_input_raises(barrett):
     model, _, chain = barrett
     with pytest.raises(ValueError, match="hand"):

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, assume, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from hog_jax.video import connected_blobs, ellipse_axes, mask_ellipse
@@ -84,6 +84,48 @@ def test_gains_follow_kalatas_relations():
         assert lam**2 == pytest.approx(b**2 / (1 - a))  # Kalata 1984: Λ² = β² / (1 - α)
         assert b == pytest.approx(2 * (2 - a) - 4 * np.sqrt(1 - a))
     assert alpha_beta_gains(1.0) == pytest.approx((ALPHA, BETA))  # the documented defaults
+
+
+def kalata_decimal(lam: float) -> tuple[float, float]:
+    """Kalata's closed form as printed, in 80-digit decimal arithmetic: its cancellation costs at most
+    the ~35 digits that Λ up to 1e8 (Λ² ~ 1e16 against a result ~1) take away, far from 80."""
+    from decimal import Decimal, localcontext
+
+    with localcontext() as ctx:
+        ctx.prec = 80
+        x = Decimal(lam)  # exact: every float is a finite decimal
+        root = (x * x + 8 * x).sqrt()
+        return float((-x * x - 8 * x + (x + 4) * root) / 8), float((x * x + 4 * x - x * root) / 4)
+
+
+TRACKING_INDEX = st.floats(min_value=0.0, max_value=1e8, exclude_min=True)
+
+
+@settings(max_examples=300, deadline=None)
+@given(lam=TRACKING_INDEX)
+def test_gains_are_kalatas_to_float64_precision_and_stable_for_every_tracking_index(lam):
+    a, b = alpha_beta_gains(lam)
+    assert 0 < a < 1 and 0 < b < 2 * (2 - a)  # the α-β stability region
+    if lam >= 1e-300:  # normal β (a subnormal Λ gives a subnormal β ≈ Λ of few digits)
+        assert (a, b) == pytest.approx(kalata_decimal(lam), rel=2e-15)
+
+
+@settings(max_examples=300, deadline=None)
+@given(lam=TRACKING_INDEX, factor=st.floats(1.5, 1e6))
+def test_gains_grow_with_the_tracking_index(lam, factor):
+    """For tracking indices at least 1.5 times apart: nearer ones may differ by a rounding of the last
+    bit either way, and up to 1e8 α comes within a few units in the last place of 1."""
+    assume(lam * factor <= 1e8)
+    (a, b), (a2, b2) = alpha_beta_gains(lam), alpha_beta_gains(lam * factor)
+    assert a < a2 and b < b2
+
+
+def test_gains_at_large_tracking_indices_and_beyond_the_valid_range():
+    a, b = alpha_beta_gains(1e7)
+    assert a == pytest.approx(1 - 4e-14, abs=1e-16) and b == pytest.approx(2 - 8e-7, rel=1e-12)  # 1 - 4/Λ², 2 - 8/Λ
+    for bad in (1e9, 0.0, -1.0, float("inf"), float("nan")):
+        with pytest.raises(ValueError, match="^tracking_index: "):
+            alpha_beta_gains(bad)
 
 
 def test_tracks_are_shaped(videos):

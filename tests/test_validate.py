@@ -35,6 +35,19 @@ def test_as_array_rejects_with_named_error(value, kwargs, message):
         as_array(value, "X", **kwargs)
 
 
+@pytest.mark.parametrize("value", [np.array(["a", "b"]), np.array([b"1"]), np.array(["2024-01-01"], "datetime64[D]"),
+                                   np.zeros(2, [("x", float)])])
+def test_as_array_keeping_the_input_dtype_still_rejects_non_numeric_values(value):
+    with pytest.raises(ValueError, match=r"^X: expected a numeric array, got dtype"):
+        as_array(value, "X", dtype=None)
+
+
+def test_as_array_keeping_the_input_dtype_keeps_numbers_and_bools():
+    for value in (np.array([True, False]), np.arange(3, dtype=np.uint8), np.ones(2, np.float32)):
+        out = as_array(value, "X", dtype=None)
+        assert out.dtype == value.dtype and np.array_equal(out, value)
+
+
 def test_as_array_allows_empty_and_nonfinite_when_asked():
     assert as_array(np.zeros((0, 3)), "X", nonempty=False).shape == (0, 3)
     assert np.isnan(as_array([np.nan], "X", finite=False)[0])

@@ -41,7 +41,8 @@ def as_array(
         shape: Expected shape; an int entry must match exactly, a str entry (e.g. "T") or None
             matches any size. A str used twice must have the same size at both places.
         ndim: Allowed number of dimensions (an int or several), when `shape` is not given.
-        dtype: Target dtype (None keeps the input's). Integer targets reject non-integral floats.
+        dtype: Target dtype (None keeps the input's, which must be numeric or bool). Integer
+            targets reject non-integral floats.
         finite: Reject NaN and +-inf.
         nonempty: Reject arrays with a zero-sized axis.
         min_value: Inclusive lower bound on every element.
@@ -60,13 +61,14 @@ def as_array(
         raise ValueError(f"{name}: cannot be converted to an array ({err})") from err
     if raw.dtype == object:
         raise ValueError(f"{name}: expected a numeric array, got a ragged or object array")
+    # also with dtype=None: strings, dates or records would fail later in numpy's own ufuncs
+    if not (np.issubdtype(raw.dtype, np.number) or raw.dtype == bool):
+        raise ValueError(f"{name}: expected a numeric array, got dtype {raw.dtype}")
     if dtype is not None:
         target = np.dtype(dtype)
         if np.issubdtype(target, np.integer) and np.issubdtype(raw.dtype, np.floating):
             if not np.all(np.isfinite(raw)) or not np.all(raw == np.round(raw)):
                 raise ValueError(f"{name}: expected integers, got non-integral values")
-        if not (np.issubdtype(raw.dtype, np.number) or raw.dtype == bool):
-            raise ValueError(f"{name}: expected a numeric array, got dtype {raw.dtype}")
         arr = raw.astype(target, copy=False)
     else:
         arr = raw

@@ -8,9 +8,11 @@ files, C3D through `ezc3d` (the optional extra `mocap`). Text files may be xz-co
 * **TRC** (Motion Analysis / OpenSim): tab-separated; line 1 `PathFileType ...`, line 2 the keys
   `DataRate CameraRate NumFrames NumMarkers Units ...`, line 3 their values, line 4
   `Frame# Time NAME1 <tab> <tab> NAME2 ...`, line 5 `X1 Y1 Z1 X2 ...`, then one row per frame (an empty
-  or NaN cell is a gap).
+  or NaN cell is a gap). The rows must be as many as NumFrames says and as wide as NumMarkers says.
 * **C3D** through `ezc3d.c3d(path)`: POINT:LABELS, POINT:RATE, POINT:UNITS; a sample whose residual
-  is negative (the C3D convention for "invalid"), or NaN, is a gap.
+  is negative (the C3D convention for "invalid"), or NaN, is a gap. The file must hold the frames its
+  header states (checked on the bytes before ezc3d reads them: ezc3d 1.7 makes up the frames a cut
+  file lacks, and hangs or crashes on some cuts).
 """
 from __future__ import annotations
 
@@ -49,26 +51,32 @@ def read_text(path: Path) -> str:
         Its text.
 
     Raises:
-        ValueError: naming `path` when it cannot be read as UTF-8 text.
+        ValueError: naming `path` when it cannot be read as UTF-8 text (a truncated `.xz` included).
     """
     try:
         if path.suffix == ".xz":
             with lzma.open(path, "rt", encoding="utf-8-sig") as f:
                 return f.read()
         return path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError, lzma.LZMAError) as err:
+    except (OSError, EOFError, UnicodeDecodeError, lzma.LZMAError) as err:  # EOFError: a cut .xz
         raise ValueError(f"path: cannot read {path} as text ({err})") from err
 
 
-def _table(lines: list[str], delimiter: str, n_columns: int, path: Path) -> np.ndarray:
-    """Rows of numbers with empty cells (gaps) -> float array (rows, n_columns), NaN in the gaps."""
+def _table(lines: list[str], delimiter: str, n_markers: int, path: Path) -> np.ndarray:
+    """Rows of numbers with empty cells (gaps) -> float array (rows, 2 + 3 n_markers), NaN in the gaps.
+
+    A row must hold the frame and time (or sub-frame) columns and X, Y, Z of every marker the header
+    names; cells past them must be empty (a trailing delimiter), not values of markers it does not name.
+    """
+    n_columns = 2 + 3 * n_markers
     text = _EMPTY_CELL.sub("nan", "\n".join(lines))
     try:
         table = np.loadtxt(io.StringIO(text), delimiter=delimiter, ndmin=2)
     except ValueError as err:
         raise ValueError(f"path: {path} has a row that is not numbers ({err})") from err
-    if table.shape[1] < n_columns:
-        raise ValueError(f"path: {path} rows have {table.shape[1]} values, expected {n_columns}")
+    if table.shape[1] < n_columns or not np.isnan(table[:, n_columns:]).all():
+        raise ValueError(f"path: {path} rows have {table.shape[1]} values, expected {n_columns} "
+                         f"(2 + 3 x {n_markers} markers of its header)")
     return table[:, :n_columns]
 
 
@@ -117,7 +125,7 @@ def load_nexus_csv(path) -> MarkerRecording:
         body.append(line)
     if not body:
         raise ValueError(f"path: {path} has no frames in its Trajectories section")
-    table = _table(body, ",", 2 + 3 * len(names), path)
+    table = _table(body, ",", len(names), path)
     markers = table[:, 2:].reshape(len(table), len(names), 3) * _scale(units[0], path)
     return make_recording(markers, names, rate)
 
@@ -127,14 +135,15 @@ def load_trc(path) -> MarkerRecording:
 
     Args:
         path: the `.trc` (or `.trc.xz`) file, tab-separated, its header stating DataRate, NumMarkers
-            and Units.
+            and Units (and usually NumFrames).
 
     Returns:
         A `MarkerRecording`.
 
     Raises:
         ValueError: naming `path` for a missing file, a header without DataRate, NumMarkers and Units,
-            or rows that disagree with it.
+            or rows that disagree with it: fewer or more frames than NumFrames (a file cut at a row
+            boundary), rows wider or narrower than NumMarkers markers.
     """
     path = _existing(path)
     lines = read_text(path).splitlines()
@@ -143,15 +152,18 @@ def load_trc(path) -> MarkerRecording:
     header = dict(zip((k.strip() for k in lines[1].split("\t")), (v.strip() for v in lines[2].split("\t"))))
     try:
         rate, n_markers, unit = float(header["DataRate"]), int(header["NumMarkers"]), header["Units"]
+        n_frames = int(header["NumFrames"]) if header.get("NumFrames") else None
     except (KeyError, ValueError) as err:
-        raise ValueError(f"path: {path} header lacks a valid DataRate, NumMarkers or Units ({err})") from err
+        raise ValueError(f"path: {path} header lacks a valid DataRate, NumMarkers, NumFrames or Units ({err})") from err
     names = [c.strip() for c in lines[3].split("\t")[2:] if c.strip()]
     if len(names) != n_markers:
         raise ValueError(f"path: {path} names {len(names)} markers, its header says NumMarkers {n_markers}")
     body = [line for line in lines[5:] if line.strip()]
     if not body:
         raise ValueError(f"path: {path} has no frames")
-    table = _table(body, "\t", 2 + 3 * n_markers, path)
+    if n_frames is not None and len(body) != n_frames:
+        raise ValueError(f"path: {path} header says {n_frames} frames, file holds {len(body)}")
+    table = _table(body, "\t", n_markers, path)
     markers = table[:, 2:].reshape(len(table), n_markers, 3) * _scale(unit, path)
     return make_recording(markers, names, rate)
 
@@ -162,6 +174,38 @@ def _import_ezc3d():
     except ImportError as err:
         raise ImportError("reading C3D files needs ezc3d: pip install 'lfd-jax[mocap]' (or pip install ezc3d)") from err
     return ezc3d
+
+
+# The C3D header's byte order and the byte holding the sign of its float scale factor, by the processor
+# type stored in byte 4 of the parameter section: Intel (IEEE, little-endian), DEC (VAX floats: the
+# sign in the high byte of the first 16-bit word), MIPS (IEEE, big-endian).
+_C3D_PROCESSORS = {84: ("little", 15), 85: ("little", 13), 86: ("big", 12)}
+
+
+def _check_c3d_length(path: Path) -> None:
+    """ValueError naming `path` when the file holds fewer frames than its header states.
+
+    From the 512-byte header (C3D user guide: 16-bit words 2 points, 3 analog samples per frame, 4
+    and 5 the first and last frame, 7-8 the scale factor, negative for float data, 9 the first block
+    of the data) and the file's size.
+    """
+    processor = b""
+    with open(path, "rb") as f:
+        head = f.read(512)
+        if len(head) == 512 and head[1] == 0x50 and head[0] >= 2:  # 0x50: the C3D key; byte 1: the parameters' block
+            f.seek(512 * (head[0] - 1) + 3)
+            processor = f.read(1)
+    if not processor or processor[0] not in _C3D_PROCESSORS:
+        raise ValueError(f"path: cannot read {path} as C3D (no C3D header and parameter section)")
+    order, sign_byte = _C3D_PROCESSORS[processor[0]]
+    points, analog, first, last = (int.from_bytes(head[k:k + 2], order) for k in (2, 4, 6, 8))
+    data_start = 512 * (int.from_bytes(head[16:18], order) - 1)
+    frame_bytes = (4 * points + analog) * (4 if head[sign_byte] & 0x80 else 2)
+    stated = last - first + 1
+    if frame_bytes and stated > 0:
+        held = max(0, path.stat().st_size - data_start) // frame_bytes
+        if held < stated:
+            raise ValueError(f"path: {path} header says {stated} frames, file holds {held} (a truncated file)")
 
 
 def load_c3d(path) -> MarkerRecording:
@@ -175,10 +219,12 @@ def load_c3d(path) -> MarkerRecording:
 
     Raises:
         ImportError: saying how to install ezc3d (the extra `mocap`) when it is absent.
-        ValueError: naming `path` for a missing or unreadable file.
+        ValueError: naming `path` for a missing or unreadable file, or one that holds fewer frames than
+            its header states.
     """
     path = _existing(path)
     ezc3d = _import_ezc3d()
+    _check_c3d_length(path)
     try:
         c3d = ezc3d.c3d(str(path))
     except Exception as err:  # ezc3d raises RuntimeError/IOError for anything it cannot parse

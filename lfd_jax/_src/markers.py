@@ -93,8 +93,9 @@ def fill_gaps(recording: MarkerRecording, max_gap_s: float = 0.2, *, max_gap_fra
         The recording with its gaps filled.
 
     Raises:
-        ValueError: naming the marker and its frames (0-based, inclusive) for a longer gap; a marker
-            that is never seen is such a gap (drop it first with `drop_untracked_markers`).
+        ValueError: naming the marker and its frames (0-based, inclusive) for a longer gap, and naming
+            a marker that is never seen, whatever the limit (drop it first with
+            `drop_untracked_markers`).
     """
     recording = _check_recording(recording)
     if max_gap_frames is None:
@@ -104,6 +105,9 @@ def fill_gaps(recording: MarkerRecording, max_gap_s: float = 0.2, *, max_gap_fra
     t = np.arange(len(markers))
     missing = np.isnan(markers).any(axis=-1)  # (T, M)
     for m in np.flatnonzero(missing.any(axis=0)):
+        if missing[:, m].all():  # no frame to interpolate from, however long the limit
+            raise ValueError(f"recording: marker {recording.names[m]!r} is never seen (all {len(markers)} frames "
+                             f"are gaps); drop it first with drop_untracked_markers")
         long = [(a, b) for a, b in gap_runs(missing[:, m]) if b - a + 1 > limit]
         if long:
             shown = ", ".join(f"{a}-{b}" for a, b in long[:5]) + (" ..." if len(long) > 5 else "")
@@ -126,7 +130,8 @@ def select_markers(recording: MarkerRecording, names: Sequence[str]) -> MarkerRe
         The recording with those markers only.
 
     Raises:
-        ValueError: naming the markers the recording lacks, or for an empty `names`.
+        ValueError: naming the markers the recording lacks, a marker named twice, or for an empty
+            `names`.
     """
     recording = _check_recording(recording)
     if isinstance(names, str) or not len(names):
@@ -134,6 +139,9 @@ def select_markers(recording: MarkerRecording, names: Sequence[str]) -> MarkerRe
     absent = [n for n in names if n not in recording.names]
     if absent:
         raise ValueError(f"names: the recording has no marker(s) {absent} (it has {list(recording.names)})")
+    twice = [n for n in dict.fromkeys(names) if list(names).count(n) > 1]
+    if twice:
+        raise ValueError(f"names: each marker may be chosen once, got {', '.join(map(repr, twice))} more than once")
     index = [recording.names.index(n) for n in names]
     return recording._replace(markers=recording.markers[:, index], names=tuple(names))
 

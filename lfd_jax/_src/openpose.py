@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -407,7 +408,7 @@ def load_reach_npz(path, movements: str | Sequence[str] | None = None) -> list[R
             if absent:
                 raise ValueError(f"path: {path} lacks {absent} of the reach layout")
             d = {k: data[k] for k in _REACH_KEYS}
-    except (OSError, EOFError) as err:
+    except (OSError, EOFError, zipfile.BadZipFile) as err:  # BadZipFile: a truncated npz
         raise ValueError(f"path: cannot read {path} as npz ({err})") from err
     names = [str(n) for n in d["names"]]
     offsets, n_frames, n_joints = d["offsets"].astype(int), len(d["t"]), len(d["joints"])

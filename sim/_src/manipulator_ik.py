@@ -204,6 +204,15 @@ def _rotation_vector(rot):
     return vec * scale
 
 
+def _norm(v):
+    """The Euclidean norm of a vector that does not overflow: squaring entries beyond ~1.8e19 overflows
+    float32, so large vectors are scaled by a power of two first (exact, and never by 1 / max |v|,
+    which XLA computes as a reciprocal that is subnormal, hence flushed to 0, beyond ~8.5e37)."""
+    half = jnp.finfo(v.dtype).maxexp // 2  # float32: entries beyond 2^60 are scaled by 2^-66
+    scale = jnp.where(jnp.max(jnp.abs(v)) > 2.0 ** (half - 4), 2.0 ** -(half + 2), 1.0).astype(v.dtype)
+    return jnp.sqrt(jnp.sum((v * scale) ** 2)) / scale
+
+
 def _pose_error(chain: ArmChain, q, target_pos, target_rot):
     """Weighted pose error e (6,), Jacobian J (6, K) of the weighted pose, and the position (m) and
     rotation (rad) error norms at q (K,)."""
@@ -211,7 +220,7 @@ def _pose_error(chain: ArmChain, q, target_pos, target_rot):
     e_rot = _rotation_vector(target_rot @ rot.T)           # world frame, as the Jacobian's rows
     e = jnp.concatenate([target_pos - pos, ROT_WEIGHT_M * e_rot])
     jac = jnp.concatenate([jnp.cross(axes, pos - anchors), ROT_WEIGHT_M * axes], -1).T
-    return e, jac, jnp.linalg.norm(target_pos - pos), jnp.linalg.norm(e_rot)
+    return e, jac, _norm(target_pos - pos), jnp.linalg.norm(e_rot)
 
 
 def _dls(chain: ArmChain, target_pos, target_rot, q, damping, iterations: int):
@@ -220,7 +229,7 @@ def _dls(chain: ArmChain, target_pos, target_rot, q, damping, iterations: int):
 
     def step(_, q):
         e, jac, _, _ = _pose_error(chain, q, target_pos, target_rot)
-        e = e * jnp.minimum(1.0, MAX_STEP / jnp.maximum(jnp.linalg.norm(e), 1e-12))
+        e = e * jnp.minimum(1.0, MAX_STEP / jnp.maximum(_norm(e), 1e-12))
         # a joint at a limit that the error pulls further out is held (its column dropped): clipping
         # its step afterwards would waste the step the other joints took to compensate for it
         pull = jac.T @ e
@@ -306,10 +315,17 @@ def solve_ik(chain: ArmChain, target_pos: ArrayLike, target_rot: ArrayLike, q0: 
 
     Raises:
         ValueError: bad input, naming the argument (rotations that are not rotations, quaternions that
-            are not unit, shapes that do not match B and K, tolerances not positive, ...).
+            are not unit, shapes that do not match B and K, target positions farther from the origin
+            than half the compute dtype's range (float32: 1.7e38 m), tolerances not positive, ...).
     """
     k = int(chain.axis.shape[0])
+    dtype = float_dtype()
     pos = as_array(target_pos, "target_pos", shape=(None, 3))
+    # checked in float64, solved in the compute dtype: half its range keeps every distance to the arm finite
+    limit, far = np.finfo(dtype).max / 2, np.linalg.norm(pos, axis=-1).max()
+    if far > limit:
+        raise ValueError(f"target_pos: expected positions within {limit:.3g} m of the origin (half the range of "
+                         f"{np.dtype(dtype).name}), got one {far:.3g} m away")
     b = pos.shape[0]
     rot = _check_rotations(target_rot, b)
     lower, upper = np.asarray(chain.lower, float), np.asarray(chain.upper, float)
@@ -321,7 +337,6 @@ def solve_ik(chain: ArmChain, target_pos: ArrayLike, target_rot: ArrayLike, q0: 
     n_restarts = check_int(n_restarts, "n_restarts", min_value=1, max_value=1024)
     rounds = check_int(rounds, "rounds", min_value=1, max_value=100)
     key = jax.random.PRNGKey(0) if key is None else key
-    dtype = float_dtype()
     q_ref = jnp.asarray(np.clip(q0, lower, upper), dtype)
     targets = (jnp.asarray(pos, dtype), jnp.asarray(rot, dtype))
     result = None

@@ -256,6 +256,17 @@ def _check_frames(frames, name: str, ndims=(4,)) -> np.ndarray:
     return arr
 
 
+def _check_models(models) -> VideoModels:
+    """`models` if it is a `VideoModels` of a `SkinModel` and two `GMM`s, else a ValueError naming it
+    (inside jit a wrong type would only show as an AttributeError or a tracing error)."""
+    if not isinstance(models, VideoModels):
+        raise ValueError(f"models: expected a VideoModels, got {type(models).__name__}")
+    for field, kind in zip(VideoModels._fields, (SkinModel, GMM, GMM)):
+        if not isinstance(getattr(models, field), kind):
+            raise ValueError(f"models.{field}: expected a {kind.__name__}, got {type(getattr(models, field)).__name__}")
+    return models
+
+
 def skin_threshold(skin: GMM, quantile: float, n_draws: int = 20000, seed: int = 0) -> float:
     """The log-density above which a colour is matched by the skin mixture `skin` (TR §3.6), in the
     mixture's own colour space: the `quantile` of its log-densities at `n_draws` of its own draws
@@ -454,9 +465,10 @@ def region_scores(models: VideoModels, frames: Real[ArrayLike, "*T H W 3"], fore
         (.., T, 4, H, W) scores in `REGIONS` order.
 
     Raises:
-        ValueError: naming the argument for frames that are not (.., T, H, W, 3) in [0, 255], a
-            foreground of another shape, or bad options.
+        ValueError: naming the argument for models that are not `VideoModels`, frames that are not
+            (.., T, H, W, 3) in [0, 255], a foreground of another shape, or bad options.
     """
+    models = _check_models(models)
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     fg = as_array(foreground, "foreground", shape=arr.shape[:-1], dtype=None)
     densities = colour_log_densities(models, jnp.asarray(arr))
@@ -535,9 +547,9 @@ def init_segment_state(first: Real[ArrayLike, "*B H W 3"], options: VideoOptions
 
 
 def _step_one(structure: LevelSetStructure, start, margins, follow, bo, lo, carry, x, densities, mode):
-    """One frame of one video: carry (w, mu, var, phi, claimed), x (C, N) the frame, densities (3, H, W) its
-    `frame_log_densities`, mode 0 padding (nothing changes), 1 training (t < start), 2 segmenting -> (carry, (labels (H, W)
-    int8, foreground (H, W), fine-scale iterations, converged)). Before `start` the background model
+    """One frame of one video: carry (w, mu, var, phi, claimed, t), x (C, N) the frame, densities
+    (3, H, W) its `frame_log_densities`, mode 0 padding (nothing changes), 1 training (t < start), 2
+    segmenting -> (carry, (labels (H, W) int8, foreground (H, W), fine-scale iterations, converged)). Before `start` the background model
     does not learn what moved in the previous frame; from `start` on each frame is classified, learnt
     outside the held pixels, scored and segmented from the previous frame's level sets (module
     docstring). `t` is the frame's index in the video."""
@@ -640,9 +652,10 @@ def segment_chunk(models: VideoModels, state: SegmentState, frames: Real[ArrayLi
         frames).
 
     Raises:
-        ValueError: naming the argument for bad frames, a state of other videos or frame size, a
-            start < 1, a pad_to below T, or bad options.
+        ValueError: naming the argument for models that are not `VideoModels`, bad frames, a state of
+            other videos or frame size, a start < 1, a pad_to below T, or bad options.
     """
+    models = _check_models(models)
     arr = _check_frames(frames, "frames", ndims=(4, 5))
     batched = arr.ndim == 5
     x = arr if batched else arr[None]

@@ -41,7 +41,8 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
 Gains: `alpha_beta_gains(tracking_index)` gives Kalata's steady-state optimal α, β for the tracking
 index Λ = σ_a dt^2 / σ_z (acceleration and measurement noise; P. R. Kalata, "The tracking index: a
 generalized parameter for α-β and α-β-γ target trackers", IEEE Trans. AES 20(2), 1984):
-α = (-Λ² - 8Λ + (Λ + 4) sqrt(Λ² + 8Λ)) / 8,  β = (Λ² + 4Λ - Λ sqrt(Λ² + 8Λ)) / 4. The defaults
+α = (-Λ² - 8Λ + (Λ + 4) sqrt(Λ² + 8Λ)) / 8,  β = (Λ² + 4Λ - Λ sqrt(Λ² + 8Λ)) / 4, evaluated in a form
+without cancellation (see `alpha_beta_gains`). The defaults
 α = 0.75, β = 0.5 are Λ = 1 (a hand: σ_a ~ 400 px/s² at 25 fps against ~1 px of centroid noise).
 
 Shapes: B videos, T frames, M targets, K blob slots, H x W pixels.
@@ -192,25 +193,36 @@ class _Options(NamedTuple):
     rules: Int[Array, " M"]
 
 
+_MAX_TRACKING_INDEX = 1e8  # beyond about 2.7e8, α = 1 - 4/Λ² + ... rounds to 1 in float64
+
+
 def alpha_beta_gains(tracking_index: float) -> tuple[float, float]:
     """Kalata's steady-state optimal α-β gains for a tracking index (Kalata 1984, IEEE Trans. AES 20(2)).
 
-    For Λ = σ_a dt^2 / σ_z (acceleration against measurement noise):
-    α = (-Λ² - 8Λ + (Λ + 4) sqrt(Λ² + 8Λ)) / 8, β = (Λ² + 4Λ - Λ sqrt(Λ² + 8Λ)) / 4. Λ = 1 gives the
-    `TrackOptions` defaults α = 0.75, β = 0.5.
+    For Λ = σ_a dt^2 / σ_z (acceleration against measurement noise), Kalata's closed form is
+    α = (-Λ² - 8Λ + (Λ + 4) sqrt(Λ² + 8Λ)) / 8, β = (Λ² + 4Λ - Λ sqrt(Λ² + 8Λ)) / 4. It subtracts
+    nearly equal numbers for large Λ (α = 1.002 at Λ = 1e7, (0, 0) at 1e9); computed here by the
+    equivalent form without cancellation: with r = sqrt(Λ² + 8Λ) and s = sqrt(1 - α) = 4 / (Λ + 4 + r)
+    (the root in (0, 1) of Λ s = 2 (1 - s)², i.e. Kalata's β² / (1 - α) = Λ² with β = 2 (1 - s)²),
+    α = (1 - s)(1 + s) = (Λ + r)(Λ + 8 + r) / (Λ + 4 + r)² and β = Λ s = 4 Λ / (Λ + 4 + r). Λ = 1 gives the
+    `TrackOptions` defaults α = 0.75, β = 0.5. The gains lie in the stability region (0 < α < 1,
+    0 < β < 2 (2 - α)) and grow with Λ.
 
     Args:
-        tracking_index: Λ > 0.
+        tracking_index: Λ, 0 < Λ <= 1e8 (beyond it α rounds to 1 in float64, the edge of the stability
+            region).
 
     Returns:
         (alpha, beta).
 
     Raises:
-        ValueError: `tracking_index` <= 0 or not finite.
+        ValueError: `tracking_index` <= 0, above 1e8 or not finite.
     """
-    lam = check_real(tracking_index, "tracking_index", min_value=0.0, exclusive_min=True)
-    root = math.sqrt(lam * lam + 8.0 * lam)
-    return (-lam * lam - 8.0 * lam + (lam + 4.0) * root) / 8.0, (lam * lam + 4.0 * lam - lam * root) / 4.0
+    lam = check_real(tracking_index, "tracking_index", min_value=0.0, exclusive_min=True,
+                     max_value=_MAX_TRACKING_INDEX)
+    u = lam + math.sqrt(lam) * math.sqrt(lam + 8.0)  # Λ + r, r = sqrt(Λ² + 8Λ) without forming Λ²
+    d = u + 4.0
+    return u * (u + 8.0) / (d * d), 4.0 * lam / d
 
 
 def _min_eig(s):

@@ -97,13 +97,25 @@ def build_database(path: Path, grasps: tuple[int, ...], views_per_grasp: int) ->
 
 
 def load_database(path: Path) -> GraspDatabase:
-    """Read a database written by `build_database`; ValueError naming the file when it was built with
-    other crop or HOG settings than this version uses."""
+    """Read a database written by `build_database`.
+
+    Raises:
+        ValueError: naming the file when it lacks an array or the `grasps` entry of its config, lists
+            grasp classes that are not Cutkosky numbers of `GRASP_NAMES`, or was built with other crop
+            or HOG settings than this version uses.
+    """
     arrays, config, _ = load_arrays(path, DB_KIND)
+    missing = [f"array {name!r}" for name in (*ViewDatabase._fields, "features") if name not in arrays]
+    missing += [] if "grasps" in config else ["config entry 'grasps'"]
+    if missing:
+        raise ValueError(f"db: {path} lacks the {', '.join(missing)} of a grasp database; rebuild it with --build-db")
+    grasps = config["grasps"]
+    if not isinstance(grasps, list) or not grasps or not all(type(g) is int and g in GRASP_NAMES for g in grasps):
+        raise ValueError(f"db: {path} lists grasps {grasps!r}, expected grasp classes among {sorted(GRASP_NAMES)}")
     if {key: config.get(key) for key in _settings()} != _settings():
         raise ValueError(f"db: {path} was built with other crop/HOG settings; rebuild it with --build-db")
     views = ViewDatabase(**{field: arrays[field] for field in ViewDatabase._fields})
-    return GraspDatabase(views, arrays["features"], tuple(config["grasps"]))
+    return GraspDatabase(views, arrays["features"], tuple(grasps))
 
 
 def read_photo(path: Path, max_side: int) -> np.ndarray:

@@ -108,12 +108,13 @@ def settings_from(args) -> FitSettings:
     values: dict = {}
     if args.config is not None:
         try:
-            values = json.loads(Path(args.config).read_text())
-        except json.JSONDecodeError as err:
-            raise ValueError(f"config: {args.config} is not JSON ({err})") from err
+            values = json.loads(Path(args.config).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:  # a binary file, a folder, ...
+            raise ValueError(f"--config: cannot read {args.config} as a JSON text file ({err})") from err
         if not isinstance(values, dict) or set(values) - fields:
             unknown = sorted(set(values) - fields) if isinstance(values, dict) else values
-            raise ValueError(f"config: expected a JSON object with keys among {sorted(fields)}, got {unknown!r}")
+            raise ValueError(f"--config: {args.config} must hold a JSON object with keys among {sorted(fields)}, "
+                             f"got {unknown!r}")
     flags = {name: getattr(args, name) for name in fields if getattr(args, name, None) is not None}
     if isinstance(flags.get("markers"), str):
         flags["markers"] = [m.strip() for m in flags["markers"].split(",") if m.strip()]
@@ -334,7 +335,8 @@ def fit(args) -> int:
 
 
 def load_model_folder(folder: Path) -> tuple[dict, list]:
-    """(manifest, one HMM per class) of a folder written by `fit`."""
+    """(manifest, one HMM per class) of a folder written by `fit`; ValueError naming the manifest when
+    it is not one (no classes, a class that is not a plain name, missing keys)."""
     manifest_path = Path(folder) / MANIFEST
     if not manifest_path.is_file():
         raise FileNotFoundError(f"model: no {MANIFEST} in {folder} (write a model folder with 'lfd-jax phmm fit')")
@@ -344,10 +346,14 @@ def load_model_folder(folder: Path) -> tuple[dict, list]:
                  and set(manifest["preprocessing"]) == {"relative_to", "max_gap_s", "n_frames"})
         inputs = {**MARKER_INPUTS, **manifest.get("inputs", {})}  # folders written before keypoint inputs
         valid = valid and set(inputs) == set(INPUT_KEYS) and inputs["kind"] in ("markers", "keypoints")
-    except (json.JSONDecodeError, KeyError, TypeError, AttributeError) as err:
+    except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, AttributeError) as err:
         raise ValueError(f"model: {manifest_path} is not a model manifest ({err})") from err
     if not valid:
         raise ValueError(f"model: {manifest_path} is not a model manifest (classes, markers, preprocessing)")
+    classes = manifest["classes"]
+    if not classes or not all(isinstance(c, str) and CLASS_NAME.fullmatch(c) for c in classes):
+        raise ValueError(f"model: {manifest_path} lists classes {classes!r}; expected one or more class names "
+                         f"(write the folder with 'lfd-jax phmm fit')")
     manifest["inputs"] = inputs
     return manifest, [phmm_jax.load(Path(folder) / f"{name}.npz") for name in manifest["classes"]]
 
