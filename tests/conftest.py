@@ -1,4 +1,8 @@
+import gc
 import os
+from pathlib import Path
+
+import pytest
 
 os.environ.setdefault("LFD_NO_PROGRESS", "1")
 from tests.xla_level import use_fast_compile  # noqa: E402
@@ -15,6 +19,34 @@ import jax  # noqa: E402
 # directory). Subprocesses started by tests (CLIs, sharded and multi-host checks, the MJX
 # equivalence checks) are short and keep their own cache.
 jax.config.update("jax_enable_compilation_cache", False)
+
+# XLA:CPU maps the code and constants of every compiled kernel into memory as separate mappings (about
+# three per kernel) and keeps them while the executable is cached. A pytest worker that runs half the
+# suite compiles thousands of programs: it passed 40,000 mappings half-way through a local run, and at
+# Linux's vm.max_map_count (65,530 by default) the JIT's next mmap fails and the worker dies in a compile
+# with SIGSEGV or SIGABRT, in whichever test file comes last. After a test file, when the worker holds
+# more than this share of the limit, JAX's caches are cleared, which unmaps that code (files that share
+# compiled functions then compile them again, so it is not done after every file).
+MAP_SHARE_BEFORE_CLEARING = 0.5
+MAPS = Path("/proc/self/maps")
+MAX_MAP_COUNT = Path("/proc/sys/vm/max_map_count")
+
+
+def memory_map_share() -> float:
+    """The share of vm.max_map_count this process uses (0 where /proc does not say)."""
+    try:
+        with MAPS.open() as maps:
+            return sum(1 for _ in maps) / int(MAX_MAP_COUNT.read_text())
+    except (OSError, ValueError):
+        return 0.0
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_compiled_code_near_the_map_limit():
+    yield
+    if memory_map_share() > MAP_SHARE_BEFORE_CLEARING:
+        jax.clear_caches()
+        gc.collect()
 
 # The heaviest test files, heaviest first (a file's tests together, on a cold `make test` on the 2-core
 # machine): `make test` runs whole files on two workers in collection order

@@ -52,7 +52,7 @@ def test_mjx_entry_points_check_their_input(scene):
         bad[1, 2] = bad_value
         _raises(match, sim.worlds_from_qpos, mjx_model, bad)
     _raises("qpos: expected a real array", sim.worlds_from_qpos, mjx_model, good.astype(complex))
-    _raises("qpos: expected a real array", sim.worlds_from_qpos, mjx_model, np.full((2, nq), "a"))
+    _raises("qpos: expected a numeric array", sim.worlds_from_qpos, mjx_model, np.full((2, nq), "a"))
     _raises("qpos: ", sim.worlds_from_qpos, mjx_model, [[0.0] * nq, [0.0]])  # ragged
     # batched_rollout: the model (MJX-JAX, Euler / implicitfast), a batch of worlds, the step counts
     _raises("mjx_model: expected an mjx.Model", sim.batched_rollout, model, worlds, 4)
