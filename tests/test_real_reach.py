@@ -9,10 +9,12 @@ import numpy as np
 import pytest
 
 from experiments.real_reach import Config, main
-from experiments.real_reach.data import load_movements, reach_features
+from experiments.real_reach import events as evt
+from experiments.real_reach.data import event_features, load_movements, reach_features
 from experiments.real_reach.methods import dtw_distances
 
-JOINTS = ("Neck", "RShoulder", "RElbow", "RWrist", "MidHip", "RThumb4FingerTip", "RIndex4FingerTip")
+JOINTS = ("Neck", "RShoulder", "RElbow", "RWrist", "MidHip", "RPalmBase", "RThumb4FingerTip", "RIndex4FingerTip",
+          "RMiddle1Knuckles", "RMiddle4FingerTip")
 SIZES = {"S": 2.5, "M": 5.5, "L": 7.5}
 
 
@@ -37,8 +39,11 @@ def write_reach_npz(path: Path, n_persons: int = 3, per_size: int = 3) -> Path:
                 frame[:, 2] = (frame[:, 1] + wrist) / 2
                 frame[:, 3] = wrist
                 frame[:, 4] = origin + scale * np.array([-60.0, 50.0])
-                frame[:, 5] = wrist + np.column_stack([np.full(n, 10.0), -aperture / 2])
-                frame[:, 6] = wrist + np.column_stack([np.full(n, 10.0), aperture / 2])
+                frame[:, 5] = wrist + scale * np.array([5.0, 0.0])
+                frame[:, 6] = wrist + np.column_stack([np.full(n, 10.0), -aperture / 2])
+                frame[:, 7] = wrist + np.column_stack([np.full(n, 10.0), aperture / 2])
+                frame[:, 8] = wrist + scale * np.array([15.0, 0.0])
+                frame[:, 9] = wrist + np.column_stack([np.full(n, 12.0), aperture / 2 + 3 * scale])
                 frame += rng.normal(0, 0.7, frame.shape)
                 times = np.arange(n) / 60.0
                 names.append(f"P{p}_{s}_{k + 1:02d}")
@@ -59,7 +64,7 @@ def test_quick_preset_on_a_synthetic_reach_npz(tmp_path):
     movements = load_movements(data)
     assert len(movements) == 27 and {m.person for m in movements} == {1, 2, 3}
     features = reach_features(movements[0], "person")
-    assert features.shape[1] == 7 and np.allclose(features[0, :2], 0.0)  # the wrist from its onset position
+    assert features.shape[1] == 10 and np.allclose(features[0, :2], 0.0)  # the wrist from its onset position
     out = tmp_path / "run"
     written = main(["--preset", "quick", "--data", str(data), "--out", str(out), "--n-iter", "3",
                     "--fractions", "0.5,1.0", "--event-lags", "2", "--n-phi", "3", "--search", "false"])
@@ -106,3 +111,28 @@ def test_dtw_distances_match_the_recursion():
     query = rng.normal(size=(5, 3))
     np.testing.assert_allclose(dtw_distances(query, refs), [_dtw_reference(query, r) for r in refs], rtol=1e-12)
     assert dtw_distances(refs[0], refs[:1])[0] == 0.0
+
+
+def test_event_detectors_are_online_and_find_known_boundaries(tmp_path):
+    # fitted on two persons, run on the third; the synthetic reaches' onset and contact are known
+    movements = load_movements(write_reach_npz(tmp_path / "reach.npz"))
+    feats = [event_features(m) for m in movements]
+    onsets, contacts = np.array([m.onset for m in movements]), np.array([m.contact for m in movements])
+    train = np.array([m.person for m in movements]) != 3
+    cfg = Config()
+    tr = [f for f, k in zip(feats, train) if k]
+    test = [f for f, k in zip(feats, train) if not k]
+    speed = evt.fit_speed(tr, onsets[train], contacts[train], cfg)
+    found = {"speed": (speed, evt.detect_speed(speed, test, cfg))}
+    hmm = evt.fit_event_hmm(tr, onsets[train], contacts[train], cfg)
+    found["hmm"] = (hmm, evt.detect_hmm(hmm, test, 2))
+    for name, (model, e) in found.items():
+        assert np.median(np.abs(e.onset - onsets[~train])) <= 2, name
+        assert np.median(np.abs(e.contact - contacts[~train])) <= 3, name
+        # online: each estimate is the same from the stream cut at the frame it was known
+        for k, F in enumerate(test):
+            for event in ("onset", "contact"):
+                known = int(getattr(e, f"{event}_known")[k])
+                cut = (evt.detect_speed(model, [F[:known + 1]], cfg) if name == "speed"
+                       else evt.detect_hmm(model, [F[:known + 1]], 2))
+                assert getattr(cut, event)[0] == getattr(e, event)[k], (name, event, k)

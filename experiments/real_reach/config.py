@@ -27,6 +27,7 @@ class Config:
     grid_states: tuple[int, ...] = (4, 8)
     floors: tuple[float, ...] = (0.1, 1.0)              # covariance floors, standardised units squared
     phmm_grids: tuple[str, ...] = ("SL", "SML")              # PHMM corners: S and L, or S, M and L
+    phmm_covariances: tuple[str, ...] = ("corner", "tied")   # per corner, or each state's tied across corners
     n_validation_folds: int = 3
     n_iter: int = 20
     epsilon: float = 0.1              # how far the PHMM's search may leave [0, 1]
@@ -64,6 +65,8 @@ class Config:
             raise ValueError(f"floors: non-empty, every entry > 0, got {self.floors}")
         if not self.phmm_grids or set(self.phmm_grids) - {"SL", "SML"}:
             raise ValueError(f"phmm_grids: non-empty, entries 'SL' or 'SML', got {self.phmm_grids}")
+        if not self.phmm_covariances or set(self.phmm_covariances) - {"corner", "tied"}:
+            raise ValueError(f"phmm_covariances: non-empty, entries 'corner' or 'tied', got {self.phmm_covariances}")
         if not self.event_lags or min(self.event_lags) < 0:
             raise ValueError(f"event_lags: non-empty, every entry >= 0, got {self.event_lags}")
         if self.epsilon < 0 or self.max_gap_s < 0:
@@ -73,7 +76,8 @@ class Config:
 
 
 PRESETS = {
-    "quick": {"per_class": 10, "grid_states": (4,), "floors": (0.1,), "phmm_grids": ("SML",), "n_iter": 8,
+    "quick": {"per_class": 10, "grid_states": (4,), "floors": (0.1,), "phmm_grids": ("SML",),
+              "phmm_covariances": ("tied",), "n_iter": 8,
               "recognition_steps": 3, "n_phi": 13, "event_lags": (0, 3)},
     "paper": {},
 }

@@ -1,14 +1,17 @@
 """The study's data: every movement of a reach-to-grasp npz as per-frame hand features over the whole
 recording, with the annotated reach (onset, contact) as frame indices.
 
-Features per frame (`FEATURES`): the wrist position, the thumb tip and the index tip relative to the
-wrist, and the grip aperture (thumb tip – index tip distance), from the OpenPose keypoints after short
-gaps are filled (`lfd_jax.fill_track_gaps`). Two versions (`NORMALISATIONS`):
+Features per frame (`FEATURES`): the wrist position, the thumb, index and middle finger tips
+relative to the wrist, and two grip apertures (thumb tip – index tip and thumb tip – middle tip
+distances), from the OpenPose keypoints after short gaps are filled (`lfd_jax.fill_track_gaps`). The
+middle finger matters: one of the four persons opens thumb and index alike for every size and scales
+the grip with the middle finger. Versions (`NORMALISATIONS`):
 
 * `pixels`: image pixels as the camera gives them (the wrist at its absolute position);
 * `person`: per movement, the wrist relative to its position at the reach's onset (the resting pose)
-  and every length divided by the shoulder width (median Neck–RShoulder distance over the frames up to
-  the onset) — person-specific offsets and scales removed with what is known when the reach starts;
+  in shoulder widths (median Neck–RShoulder distance over the frames up to the onset), the fingers in
+  hand lengths (median RPalmBase–RMiddle1Knuckles distance over the same frames) — person-specific
+  offsets and scales removed with what is known when the reach starts;
 * `calibrated`: the `person` features z-scored per person with the mean and deviation of all that
   person's reach frames (`calibrate`): an explicit offset and scale per feature and person, read off
   the person's unlabelled reaches — a calibration set, which a new person must give first, and which
@@ -29,14 +32,16 @@ import lfd_jax as loaders
 NPZ_NAME = "reach_grasp_openpose_p1-4.npz"
 SIZES = ("S", "M", "L")
 SIZE_CM = np.array([2.5, 5.5, 7.5])
-KEYPOINTS = ("Neck", "RShoulder", "RWrist", "RThumb4FingerTip", "RIndex4FingerTip")
-FEATURES = ("wrist_x", "wrist_y", "thumb_x", "thumb_y", "index_x", "index_y", "aperture")
-APERTURE = FEATURES.index("aperture")
+KEYPOINTS = ("Neck", "RShoulder", "RWrist", "RThumb4FingerTip", "RIndex4FingerTip", "RMiddle4FingerTip",
+             "RPalmBase", "RMiddle1Knuckles")
+FEATURES = ("wrist_x", "wrist_y", "thumb_x", "thumb_y", "index_x", "index_y", "middle_x", "middle_y",
+            "aperture", "aperture_middle")
+APERTURES = (FEATURES.index("aperture"), FEATURES.index("aperture_middle"))
 NORMALISATIONS = ("pixels", "person", "calibrated")
 
 
 class Movement(NamedTuple):
-    """One recorded movement: keypoints (T, 5, 2) of `KEYPOINTS` in pixels, gaps filled; onset and
+    """One recorded movement: keypoints (T, 8, 2) of `KEYPOINTS` in pixels, gaps filled; onset and
     contact frame indices (the first and last frames of the first run of frames between the annotated
     onset and end); the size class (index into `SIZES`); the person; the name."""
 
@@ -85,25 +90,34 @@ def load_movements(data: Path, n_persons: int | None = None, max_gap_s: float = 
     return out
 
 
+def _resting_length(m: Movement, a: int, b: int) -> float:
+    k = m.keypoints[:m.onset + 1]
+    return float(np.median(np.linalg.norm(k[:, b] - k[:, a], axis=-1)))
+
+
 def shoulder_width(m: Movement) -> float:
     """Median Neck–RShoulder distance (pixels) over the frames up to the onset."""
-    k = m.keypoints[:m.onset + 1]
-    return float(np.median(np.linalg.norm(k[:, 1] - k[:, 0], axis=-1)))
+    return _resting_length(m, 0, 1)
+
+
+def hand_length(m: Movement) -> float:
+    """Median RPalmBase–RMiddle1Knuckles distance (pixels) over the frames up to the onset."""
+    return _resting_length(m, 6, 7)
 
 
 def reach_features(m: Movement, normalisation: str) -> np.ndarray:
-    """(L, 7) `FEATURES` over the reach (onset..contact inclusive), in pixels or person units (the
+    """(L, 10) `FEATURES` over the reach (onset..contact inclusive), in pixels or person units (the
     `calibrated` version is `calibrate` of the person units over a person's reaches)."""
-    k = m.keypoints[m.onset:m.contact + 1]
-    wrist = k[:, 2]
-    thumb, index = k[:, 3] - wrist, k[:, 4] - wrist
-    aperture = np.linalg.norm(k[:, 3] - k[:, 4], axis=-1)[:, None]
     if normalisation not in NORMALISATIONS:
         raise ValueError(f"normalisation: one of {NORMALISATIONS}, got {normalisation!r}")
+    k = m.keypoints[m.onset:m.contact + 1]
+    wrist = k[:, 2]
+    tips = [k[:, j] - wrist for j in (3, 4, 5)]
+    apertures = [np.linalg.norm(k[:, 3] - k[:, j], axis=-1)[:, None] for j in (4, 5)]
     if normalisation == "pixels":
-        return np.concatenate([wrist, thumb, index, aperture], axis=1)
-    scale = shoulder_width(m)
-    return np.concatenate([wrist - wrist[:1], thumb, index, aperture], axis=1) / scale
+        return np.concatenate([wrist, *tips, *apertures], axis=1)
+    hand = np.concatenate([*tips, *apertures], axis=1) / hand_length(m)
+    return np.concatenate([(wrist - wrist[:1]) / shoulder_width(m), hand], axis=1)
 
 
 def calibrate(seqs: list[np.ndarray], persons: np.ndarray) -> list[np.ndarray]:
@@ -121,9 +135,12 @@ def calibrate(seqs: list[np.ndarray], persons: np.ndarray) -> list[np.ndarray]:
 
 def event_features(m: Movement) -> np.ndarray:
     """(T, 4) causal features of the whole recording for the event streams: the wrist's displacement
-    from the first frame (x, y), its speed (per frame) and the grip aperture, in shoulder widths."""
+    from the first frame (x, y), its speed (per frame) and the grip aperture, in shoulder widths — at
+    frame t the mean Neck–RShoulder distance of frames 0..t, so that no frame needs the annotated
+    onset or a later frame."""
     wrist = m.keypoints[:, 2]
-    scale = shoulder_width(m)
+    widths = np.linalg.norm(m.keypoints[:, 1] - m.keypoints[:, 0], axis=-1)
+    scale = np.cumsum(widths) / np.arange(1, len(widths) + 1)
     speed = np.concatenate([[0.0], np.linalg.norm(np.diff(wrist, axis=0), axis=-1)])
     aperture = np.linalg.norm(m.keypoints[:, 3] - m.keypoints[:, 4], axis=-1)
-    return np.column_stack([wrist - wrist[:1], speed, aperture]) / scale
+    return np.column_stack([wrist - wrist[:1], speed, aperture]) / scale[:, None]

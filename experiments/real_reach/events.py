@@ -48,10 +48,10 @@ def _speed_crossings(F: np.ndarray, window: int, on: float, stop: float) -> tupl
     s = _smoothed_speed(F, window)
     above = np.nonzero(s[window:] > on)[0]
     onset = window + int(above[0]) if len(above) else len(s) - 1
+    # below the share of the running peak; no further condition on how high the peak rose: slow
+    # persons peak at only 1.3-2x the onset threshold
     peak = np.maximum.accumulate(s[onset:])
-    # below the share of the peak after the speed has risen to twice the onset threshold
-    risen = peak > 2 * on
-    below = np.nonzero(risen & (s[onset:] < stop * peak))[0]
+    below = np.nonzero(s[onset:] < stop * peak)[0]
     contact = onset + int(below[0]) if len(below) else len(s) - 1
     return onset, contact
 
@@ -62,12 +62,12 @@ def fit_speed(feats: list[np.ndarray], onsets: np.ndarray, contacts: np.ndarray,
     and contact errors added) on the given (training) movements."""
     best, best_cost = None, np.inf
     for window, on, stop in itertools.product(cfg.speed_windows, cfg.speed_onsets, cfg.speed_stops):
-            cross = np.array([_speed_crossings(F, window, on, stop) for F in feats])
-            d_on, d_off = np.median(cross[:, 0] - onsets), np.median(cross[:, 1] - contacts)
-            cost = (np.median(np.abs(cross[:, 0] - onsets - np.round(d_on)))
-                    + np.median(np.abs(cross[:, 1] - contacts - np.round(d_off))))
-            if cost < best_cost:
-                best, best_cost = (window, on, stop, int(np.round(d_on)), int(np.round(d_off))), cost
+        cross = np.array([_speed_crossings(F, window, on, stop) for F in feats])
+        d_on, d_off = np.median(cross[:, 0] - onsets), np.median(cross[:, 1] - contacts)
+        cost = (np.median(np.abs(cross[:, 0] - onsets - np.round(d_on)))
+                + np.median(np.abs(cross[:, 1] - contacts - np.round(d_off))))
+        if cost < best_cost:
+            best, best_cost = (window, on, stop, int(np.round(d_on)), int(np.round(d_off))), cost
     return best
 
 

@@ -9,7 +9,7 @@ their frames' mean and standard deviation) and returns a size class (index into 
   piecewise linear in φ); the recognised φ (PHMM eq. 3, `phmm_jax.recognize`) is turned into cm and
   snapped to the nearest size. On a prefix, the φ of a lattice over [−ε, 1 + ε] with the highest
   forward probability of the frames so far (paths still running).
-* `aperture`: nearest class mean of the largest grip aperture so far.
+* `aperture`: nearest class mean of the largest grip apertures so far (thumb–index, thumb–middle).
 * `regression`: least squares from the last frame's features (and 1) to the size in cm, snapped.
 * `hmmlearn`: one left-right `hmmlearn.hmm.GaussianHMM` per size trained on full reaches; the size
   of highest log-likelihood of the prefix (hmmlearn's paths may end in any state).
@@ -17,26 +17,30 @@ their frames' mean and standard deviation) and returns a size class (index into 
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
+import jax.numpy as jnp
 import numpy as np
 
 import phmm_jax as P
-from experiments.real_reach.data import APERTURE, SIZE_CM
+from experiments.real_reach.data import APERTURES, SIZE_CM
 
 N_SIZES = 3
 
 
 class Setting(NamedTuple):
     """States per HMM, covariance floor (standardised units squared), PHMM corners ('SL', 'SML';
-    None for hmmlearn)."""
+    None for hmmlearn), PHMM covariances tied across the corners."""
 
     n_states: int
     floor: float
     grid: str | None = None
+    tied: bool = False
 
     def __str__(self) -> str:
-        return f"{self.n_states} states, floor {self.floor:g}" + (f", corners {self.grid}" if self.grid else "")
+        return (f"{self.n_states} states, floor {self.floor:g}" + (f", corners {self.grid}" if self.grid else "")
+                + (", tied" if self.tied else ""))
 
 
 def prefix_length(length: int, fraction: float) -> int:
@@ -97,11 +101,18 @@ def pad(seqs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 def fit_phmm(Z: list[np.ndarray], y: np.ndarray, setting: Setting, cfg) -> P.PHMM:
     """The d = 1 PHMM over the size: one corner per size of `setting.grid`, classical left-right
-    local HMMs with diagonal covariances (synchronised local training, `phmm_jax.fit_phmm`)."""
+    local HMMs with diagonal covariances (synchronised local training, `phmm_jax.fit_phmm`); with
+    `setting.tied`, each state's covariance replaced by its mean over the corners, so that φ moves
+    the means only and a wider corner cannot win by its spread (the log-determinant term)."""
     classes = (0, 2) if setting.grid == "SL" else (0, 1, 2)
     groups = [[z for z, c in zip(Z, y) if c == k] for k in classes]
     config = P.HMMConfig(setting.n_states, 1, None, "diag")
-    return P.fit_phmm(groups, (len(classes),), config, options=P.FitOptions(max_iter=cfg.n_iter, reg_covar=setting.floor))
+    phmm = P.fit_phmm(groups, (len(classes),), config, options=P.FitOptions(max_iter=cfg.n_iter, reg_covar=setting.floor))
+    if not setting.tied:
+        return phmm
+    cov = phmm.local.covariances
+    tied = dataclasses.replace(phmm.local, covariances=jnp.broadcast_to(cov.mean(0, keepdims=True), cov.shape))
+    return dataclasses.replace(phmm, local=tied)
 
 
 def recognise_phmm(phmm: P.PHMM, Z: list[np.ndarray], cfg) -> np.ndarray:
@@ -196,11 +207,14 @@ def predict_hmmlearn(models, Z) -> np.ndarray:
 # --- baselines fitted on the training prefixes of the same fraction ---
 
 def predict_aperture(Z_train, y, Z_test) -> np.ndarray:
-    """Nearest class mean of the largest aperture so far."""
-    top = np.array([z[:, APERTURE].max() for z in Z_train])
-    means = np.array([top[y == k].mean() if np.any(y == k) else np.inf for k in range(N_SIZES)])
-    test = np.array([z[:, APERTURE].max() for z in Z_test])
-    return np.argmin(np.abs(test[:, None] - means[None]), axis=1)
+    """Nearest class mean (Euclidean) of the largest apertures so far (thumb–index, thumb–middle)."""
+    def top(Z):
+        return np.stack([z[:, list(APERTURES)].max(0) for z in Z])
+
+    tops = top(Z_train)
+    means = np.stack([tops[y == k].mean(0) if np.any(y == k) else np.full(len(APERTURES), np.inf)
+                      for k in range(N_SIZES)])
+    return np.argmin(np.sum((top(Z_test)[:, None] - means[None]) ** 2, axis=-1), axis=1)
 
 
 def predict_regression(Z_train, y, Z_test) -> np.ndarray:
@@ -236,9 +250,11 @@ def predict_dtw(Z_train, y, Z_test) -> np.ndarray:
 
 
 def settings_grid(method: str, cfg) -> list[Setting]:
-    """The settings `select_setting` chooses from: corners × states × floors for the PHMM."""
+    """The settings `select_setting` chooses from: corners × covariances × states × floors for the
+    PHMM, states × floors for hmmlearn."""
     grids = cfg.phmm_grids if method == "phmm" else (None,)
-    return [Setting(n, f, g) for g in grids for n in cfg.grid_states for f in cfg.floors]
+    tied = [c == "tied" for c in cfg.phmm_covariances] if method == "phmm" else (False,)
+    return [Setting(n, f, g, t) for g in grids for t in tied for n in cfg.grid_states for f in cfg.floors]
 
 
 def full_predict(method: str, Z_train, y, Z_test, setting: Setting, cfg) -> np.ndarray:

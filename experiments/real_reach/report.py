@@ -12,13 +12,14 @@ PROTOCOL = """\
 reach's parameter). Leave-one-person-out: every method is trained on the other persons' reaches
 (onset to contact, the annotations) and tested on the held-out person's; the accuracy is the share
 of the held-out reaches whose size is right (pooled over the folds; chance 33 %). Features per
-frame: the wrist, the thumb tip and the index tip relative to the wrist, and the grip aperture,
-z-scored with the training frames. "Along the reach": every method answers on the first 20–100 %
+frame: the wrist, the thumb, index and middle finger tips relative to the wrist, and the thumb–index
+and thumb–middle apertures, z-scored with the training frames. "Along the reach": every method answers on the first 20–100 %
 of the frames (the aperture, regression and DTW baselines are refitted on the training reaches'
 prefixes of the same share; the HMMs are trained on whole reaches and score the prefix).
 
 **Choice of settings, never on the held-out person.** The PHMM's states ({states}), covariance
-floor ({floors}) and corners ({grids}: S and L, or S, M and L) and hmmlearn's states and floor are
+floor ({floors}), corners ({grids}: S and L, or S, M and L) and covariances ({covs}: per corner, or
+each state's tied across the corners) and hmmlearn's states and floor are
 chosen by the mean accuracy on inner leave-one-person-out folds of the training persons (at most
 {n_val}); the event detectors' windows, thresholds and delays on the training persons' movements."""
 
@@ -31,7 +32,8 @@ def header(cfg, movements, runtime_s: float) -> str:
         f"Data: `{cfg.data}`, {len(movements)} movements of persons {', '.join(map(str, persons))}. "
         f"Run time {runtime_s:.0f} s.",
         PROTOCOL.format(states=", ".join(map(str, cfg.grid_states)), floors=", ".join(f"{f:g}" for f in cfg.floors),
-                        grids=", ".join(cfg.phmm_grids), n_val=cfg.n_validation_folds)])
+                        grids=", ".join(cfg.phmm_grids), covs=", ".join(cfg.phmm_covariances),
+                        n_val=cfg.n_validation_folds)])
 
 
 def _settings(settings) -> str:
@@ -41,8 +43,9 @@ def _settings(settings) -> str:
 def size_section(r, metrics: dict, normalisation: str, cfg) -> str:
     """The size table of one normalisation and the PHMM's diagnostics."""
     what = {"pixels": "image pixels, the wrist at its absolute position",
-            "person": "per person: the wrist relative to its onset position, lengths in shoulder widths "
-                      "(Neck–RShoulder up to the onset)",
+            "person": "per person: the wrist relative to its onset position in shoulder widths "
+                      "(Neck–RShoulder up to the onset), the fingers in resting hand lengths (palm base – "
+                      "middle knuckle up to the onset)",
             "calibrated": "the person features z-scored per person with all of that person's reach frames (an "
                           "offset and scale per feature and person from the person's unlabelled reaches, the "
                           "held-out person's included: a calibration set in which the three sizes are equally "
@@ -87,7 +90,9 @@ def event_section(r, metrics: dict, cfg) -> str:
             f"{len(r.person)} movements of the held-out persons (figure `event_errors.png`). Latency: the frame at "
             "which the estimate is known minus the annotated frame (negative: known before the annotated event; "
             "the speed detector's crossing precedes the annotated onset, its learnt delay moves the estimate "
-            f"later).\n\n{table}\n\nSpeed settings chosen per fold: {chosen}. Event HMM: rest, "
+            "later). Both detectors are causal: the speed detector's window speed, running peak and running "
+            "shoulder-width scale use frames up to the current one, the HMM's posteriors frames up to the "
+            f"current one + ℓ.\n\n{table}\n\nSpeed settings chosen per fold: {chosen}. Event HMM: rest, "
             f"{cfg.reach_states} reach and {cfg.after_states} after-contact states (features: wrist displacement "
             "from the first frame, wrist speed, grip aperture, in shoulder widths).")
 
