@@ -316,3 +316,12 @@ def test_cli_phmm_on_a_reach_npz(tmp_path, capsys):
     assert "| P2_L_01 | L | L |" in out and "accuracy 6/6 = 100.0%" in out
     assert main(["phmm", "recognize", str(model), str(path), "--movements", "^P9_"]) == 2
     assert "movements" in capsys.readouterr().err
+
+
+def test_select_keypoints_rejects_a_name_given_twice(tmp_path):
+    tracks = load_openpose_folder(write_frames(tmp_path / "v", [[person((100.0, 100.0))]]), rate_hz=30.0)
+    with pytest.raises(ValueError, match="^names: each keypoint may be chosen once, got 'Neck' more than once"):
+        select_keypoints(tracks, ["Neck", "RWrist", "Neck"])
+    with pytest.raises(ValueError, match=r"^names: no keypoint\(s\) \['Nose2'\] in the tracks"):
+        select_keypoints(tracks, ["Nose2"])
+    assert select_keypoints(tracks, ["RWrist", "Neck"]).names == ("RWrist", "Neck")

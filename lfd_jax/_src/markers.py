@@ -119,6 +119,33 @@ def fill_gaps(recording: MarkerRecording, max_gap_s: float = 0.2, *, max_gap_fra
     return recording._replace(markers=markers)
 
 
+def chosen_indices(names: Sequence[str], available: Sequence[str], item: str, holder: str) -> list[int]:
+    """The positions of `names` in `available`, each name chosen once.
+
+    Args:
+        names: the chosen names, in the order wanted.
+        available: the names there are.
+        item: what a name names ("marker", "keypoint"), for the messages.
+        holder: what holds them ("recording", "tracks"), for the messages.
+
+    Returns:
+        The index in `available` of each name of `names`.
+
+    Raises:
+        ValueError: naming `names` when it is empty or a string, names one the `holder` lacks, or names
+            one twice.
+    """
+    if isinstance(names, str) or not len(names):
+        raise ValueError(f"names: expected a non-empty sequence of {item} names, got {names!r}")
+    absent = [n for n in names if n not in available]
+    if absent:
+        raise ValueError(f"names: no {item}(s) {absent} in the {holder}, whose {item}s are {list(available)}")
+    twice = [n for n in dict.fromkeys(names) if list(names).count(n) > 1]
+    if twice:
+        raise ValueError(f"names: each {item} may be chosen once, got {', '.join(map(repr, twice))} more than once")
+    return [list(available).index(n) for n in names]
+
+
 def select_markers(recording: MarkerRecording, names: Sequence[str]) -> MarkerRecording:
     """Some of the markers, in a given order.
 
@@ -134,15 +161,7 @@ def select_markers(recording: MarkerRecording, names: Sequence[str]) -> MarkerRe
             `names`.
     """
     recording = _check_recording(recording)
-    if isinstance(names, str) or not len(names):
-        raise ValueError(f"names: expected a non-empty sequence of marker names, got {names!r}")
-    absent = [n for n in names if n not in recording.names]
-    if absent:
-        raise ValueError(f"names: the recording has no marker(s) {absent} (it has {list(recording.names)})")
-    twice = [n for n in dict.fromkeys(names) if list(names).count(n) > 1]
-    if twice:
-        raise ValueError(f"names: each marker may be chosen once, got {', '.join(map(repr, twice))} more than once")
-    index = [recording.names.index(n) for n in names]
+    index = chosen_indices(names, recording.names, "marker", "recording")
     return recording._replace(markers=recording.markers[:, index], names=tuple(names))
 
 

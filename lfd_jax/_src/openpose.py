@@ -30,7 +30,7 @@ import numpy as np
 
 from lfd_common import as_array, check_choice, check_int, check_real
 from lfd_jax._src.marker_files import read_text
-from lfd_jax._src.markers import fill_gaps, make_recording
+from lfd_jax._src.markers import chosen_indices, fill_gaps, make_recording
 
 __all__ = ["BODY_25", "COCO_18", "HAND_21", "OPENPOSE_PARTS", "KeypointTracks", "ReachMovement", "crop_to_reach",
            "drop_untracked_keypoints", "fill_track_gaps", "is_openpose_folder", "load_openpose_folder",
@@ -476,15 +476,11 @@ def select_keypoints(tracks: KeypointTracks, names: Sequence[str]) -> KeypointTr
         The tracks with those keypoints only.
 
     Raises:
-        ValueError: naming the keypoints the tracks lack, or for an empty `names`.
+        ValueError: naming the keypoints the tracks lack, a keypoint named twice, or for an empty
+            `names`.
     """
     tracks = _check_tracks(tracks)
-    if isinstance(names, str) or not len(names):
-        raise ValueError(f"names: expected a non-empty sequence of keypoint names, got {names!r}")
-    absent = [n for n in names if n not in tracks.names]
-    if absent:
-        raise ValueError(f"names: the tracks have no keypoint(s) {absent} (they have {list(tracks.names)})")
-    index = [tracks.names.index(n) for n in names]
+    index = chosen_indices(names, tracks.names, "keypoint", "tracks")
     return tracks._replace(xy=tracks.xy[:, index], confidence=tracks.confidence[:, index], names=tuple(names))
 
 
