@@ -251,3 +251,15 @@ def test_truncated_reach_npz_is_rejected_naming_the_path(tmp_path, capsys):
     with pytest.raises(ValueError, match=r"^path: cannot read .*reach\.npz as npz"):
         L.load_reach_npz(path)
     assert "reach.npz" in one_line_error(["phmm", "fit", path, "--out", tmp_path / "model"], capsys)
+
+
+@pytest.mark.parametrize("content", [b"garbage, not an archive", None])
+def test_reach_file_that_is_not_an_npz_is_rejected_naming_the_path(tmp_path, content):
+    path = tmp_path / "reach.npz"
+    if content is None:  # a plain .npy array under an .npz name
+        with open(path, "wb") as f:
+            np.save(f, np.zeros(5))
+    else:
+        path.write_bytes(content)
+    with pytest.raises(ValueError, match=r"^path: cannot read .*reach\.npz as npz"):
+        L.load_reach_npz(path)

@@ -402,6 +402,8 @@ def load_reach_npz(path, movements: str | Sequence[str] | None = None) -> list[R
     """
     if not isinstance(path, (str, os.PathLike)) or not Path(path).is_file():
         raise ValueError(f"path: no such file {path}")
+    if not zipfile.is_zipfile(path):  # truncated, or a .npy / other file np.load would read or try to unpickle
+        raise ValueError(f"path: cannot read {path} as npz (not a complete zip archive)")
     try:
         with np.load(path, allow_pickle=False) as data:
             absent = [k for k in _REACH_KEYS if k not in data.files]
