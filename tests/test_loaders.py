@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import lfd_jax as L
 from experiments.data import ue_adl
 from tests.mocap_files import write_angles, write_c3d, write_nexus_csv, write_trc
+from tests.video_scene import write_video
 
 NAMES = ("RSHO1", "RFTP", "STRN")
 SETTINGS = settings(max_examples=15, deadline=None)
@@ -229,16 +230,6 @@ def _frames(n, h=24, w=32, seed=7):
     return np.random.default_rng(seed).integers(0, 256, (n, h, w, 3), dtype=np.uint8)
 
 
-def _write_video(path, frames, rate=10.0):
-    import cv2
-
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), rate, frames.shape[2:0:-1])
-    for f in frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-    writer.release()
-    return path
-
-
 def test_image_folder_is_rgb_uint8_in_name_order(tmp_path):
     import cv2
 
@@ -266,15 +257,15 @@ def test_image_folder_is_rgb_uint8_in_name_order(tmp_path):
 def test_video_and_stereo_pair(tmp_path):
     colours = np.array([[200, 30, 30], [30, 200, 30], [30, 30, 200], [200, 200, 30], [30, 200, 200]], np.uint8)
     frames = np.broadcast_to(colours[:, None, None], (5, 24, 32, 3)).copy()  # one colour a frame: RGB order shows
-    video = L.load_video(_write_video(tmp_path / "left.avi", frames))
+    video = L.load_video(write_video(tmp_path / "left.avi", frames))
     assert video.frames.shape == frames.shape and video.frames.dtype == np.uint8 and video.rate_hz == 10.0
     assert np.abs(video.frames.astype(int) - frames).max() < 12  # MJPG is lossy
-    stereo = L.load_stereo_videos(tmp_path / "left.avi", _write_video(tmp_path / "right.avi", frames[::-1]))
+    stereo = L.load_stereo_videos(tmp_path / "left.avi", write_video(tmp_path / "right.avi", frames[::-1]))
     assert stereo.left.shape == stereo.right.shape == frames.shape
-    _write_video(tmp_path / "short.avi", frames[:3])
+    write_video(tmp_path / "short.avi", frames[:3])
     with pytest.raises(ValueError, match="^right: 3 frames, the left video has 5"):
         L.load_stereo_videos(tmp_path / "left.avi", tmp_path / "short.avi")
-    _write_video(tmp_path / "small.avi", _frames(5, 16, 16))
+    write_video(tmp_path / "small.avi", _frames(5, 16, 16))
     with pytest.raises(ValueError, match="^right: frames of 16x16 pixels"):
         L.load_stereo_videos(tmp_path / "left.avi", tmp_path / "small.avi")
     with pytest.raises(ValueError, match="^left: no such file"):

@@ -12,7 +12,7 @@ import pytest
 
 import hog_jax.video as hv
 import lfd_jax as L
-from tests.video_scene import PERSON_RGB, SKIN_RGB, toy_skin_model
+from tests.video_scene import PERSON_RGB, SKIN_RGB, toy_skin_model, write_video
 
 H, W, T, START, CHUNK = 24, 32, 12, 7, 5
 CAMERA = hv.StereoCamera(focal_px=30.0, baseline_m=0.12, width=W, height=H)
@@ -109,22 +109,12 @@ def test_segment_chunk_carries_the_state_and_names_bad_input(models):
         hv.track_chunk(hv.connected_blobs(left[:3, :, :, 0] > 128), "a state")
 
 
-def _write_video(path, frames, rate=10.0):
-    import cv2
-
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), rate, frames.shape[2:0:-1])
-    for f in frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-    writer.release()
-    return path
-
-
 def test_readers_yield_the_frames_of_the_whole_loaders(tmp_path):
     import cv2
     from PIL import Image
 
     frames, _ = _stereo()
-    video = _write_video(tmp_path / "clip.avi", frames)
+    video = write_video(tmp_path / "clip.avi", frames)
     chunks = list(L.iter_video(video, chunk=CHUNK))
     assert [len(c) for c in chunks] == [5, 5, 2] and chunks[0].dtype == np.uint8
     np.testing.assert_array_equal(np.concatenate(chunks), L.load_video(video).frames)
@@ -144,11 +134,11 @@ def test_readers_yield_the_frames_of_the_whole_loaders(tmp_path):
     np.testing.assert_array_equal(np.concatenate(folder), frames)
     assert L.video_info(tmp_path) == L.VideoInfo(H, W, None, T)
     # a stereo pair in step, and the errors name the argument
-    _write_video(tmp_path / "right.avi", frames[::-1])
+    write_video(tmp_path / "right.avi", frames[::-1])
     pairs = list(L.iter_stereo_videos(video, tmp_path / "right.avi", chunk=CHUNK))
     stereo = L.load_stereo_videos(video, tmp_path / "right.avi")
     np.testing.assert_array_equal(np.concatenate([p[1] for p in pairs]), stereo.right)
-    _write_video(tmp_path / "short.avi", frames[:8])
+    write_video(tmp_path / "short.avi", frames[:8])
     with pytest.raises(ValueError, match="^right: 8 frames, the left video has 12"):
         list(L.iter_stereo_videos(video, tmp_path / "short.avi", chunk=CHUNK))
     with pytest.raises(ValueError, match="^path: no such file"):

@@ -1,4 +1,4 @@
-"""The colours of the video tests' toy scenes and the skin model fitted on them."""
+"""The colours of the video tests' toy scenes, the skin model fitted on them, and a video file writer."""
 import jax
 import numpy as np
 
@@ -16,3 +16,14 @@ def toy_skin_model(seed: int = 1) -> hog_jax.SkinModel:
     colours = np.array([[g] * 3 for g in BACKGROUND_GREYS] + [PERSON_RGB])
     other = np.clip(np.repeat(colours, 200, axis=0) + rng.normal(0, 4, (600, 3)), 0, 255)
     return hog_jax.fit_skin_model(jax.random.key(0), skin, other, n_components=2, n_background=3)
+
+
+def write_video(path, frames: np.ndarray, rate: float = 10.0):
+    """`frames` (T, H, W, 3) RGB uint8 written as an MJPG video at `rate` frames/s (OpenCV); its path."""
+    import cv2
+
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), rate, frames.shape[2:0:-1])
+    for f in frames:
+        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    writer.release()
+    return path
