@@ -36,6 +36,7 @@ Example:
 from hog_jax import video
 from hog_jax._src.checks import feature_limit
 from hog_jax._src.exact import LSHResult
+from hog_jax._src.hands import HandBoxes, HandOptions, find_hands
 from hog_jax._src.hog import HOGConfig, hog, hog_dim
 from hog_jax._src.knn import (KNNModel, Prediction, euler_to_quat, fit, intra_class_sigma, mean_rotation,
                               predict, quat_to_euler, vote)
@@ -49,10 +50,10 @@ from hog_jax._src.skin_adapt import adapt_skin_model, adapt_to_face, adapt_to_sk
 from hog_jax._src.skin_rules import SkinRules, fit_skin_rules, skin_rule_mask, static_skin
 
 __all__ = [
-    "GMM", "HOGConfig", "KNNModel", "LSHIndex", "LSHResult", "LinearMetric", "Prediction", "Segmentation",
+    "GMM", "HOGConfig", "HandBoxes", "HandOptions", "KNNModel", "LSHIndex", "LSHResult", "LinearMetric", "Prediction", "Segmentation",
     "SkinModel", "SkinRules", "SkinStructure", "TuneOptions", "TuneResult", "adapt_skin_model", "adapt_to_face",
     "adapt_to_skin", "apply_metric", "build_index",
-    "crop_components", "euler_to_quat", "exact_search", "feature_limit", "fit", "fit_gmm", "fit_metric",
+    "crop_components", "euler_to_quat", "exact_search", "feature_limit", "find_hands", "fit", "fit_gmm", "fit_metric",
     "fit_skin_model", "fit_skin_rules", "gmm_log_prob", "hog", "hog_dim", "intra_class_sigma", "load_skin_model",
     "mean_rotation",
     "median3", "predict", "quat_to_euler", "query", "recall_at_k", "rgb_to_chroma", "save_skin_model", "segment",

@@ -195,7 +195,7 @@ def test_grasp_on_two_photos(tmp_path):
     assert "building the grasp database: 6 grasps x 4 x 1 views" in result.stdout and db.is_file()
     rows = {line.split(" | ")[0].strip("| "): line for line in result.stdout.splitlines() if ".png |" in line}
     assert rows["hand.png"].rstrip().endswith("| found |")
-    assert rows["empty.png"].rstrip().endswith("| not found (no skin blob) |")
+    assert rows["empty.png"].rstrip().endswith("| not found (no hand) |")
     assert (tmp_path / "out" / "hand_grasp.png").is_file() and (tmp_path / "out" / "empty_grasp.png").is_file()
     assert_one_line_error(lfd_jax("grasp", tmp_path / "hand.png", "--db", db, "--grasps", "1,7",
                                   "--skin-data", skin_data), "grasps")

@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
+from experiments.data.hand_photos import GteaFrame, annotation_mask, hgr_split, missing_data, person_of
 from experiments.skin_real import main
-from experiments.skin_real.data import GteaFrame, annotation_mask, hgr_split, missing_data, person_of
 from experiments.skin_real.one_model import box_iou, gtea_scores, hands_found, median_filtered
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"

@@ -11,8 +11,9 @@ import pytest
 from scipy import ndimage
 from sklearn.metrics import jaccard_score, precision_score, recall_score
 
+from experiments.data.hand_photos import Photo, missing_data, pad_photos
+from experiments.peers.ycrcb import ycrcb_rule, ycrcb_u8
 from experiments.skin_real import main, methods
-from experiments.skin_real.data import Photo, missing_data, pad_photos
 from experiments.skin_real.metrics import (confusion_counts, hand_found, per_photo_iou, pooled_scores,
                                            threshold_counts)
 from hog_jax import fit_skin_model, median3, segment, skin_log_ratio
@@ -82,9 +83,9 @@ def test_ycrcb_rule_equals_cv2_inrange():
     r, g, b = np.meshgrid(v, [0, 64, 128, 192, 255], v, indexing="ij")
     rgb = np.stack([r, g, b], -1).reshape(256 * 5, 256, 3).astype(np.uint8)
     ycc = cv2.cvtColor(rgb, cv2.COLOR_RGB2YCrCb)
-    np.testing.assert_array_equal(np.asarray(methods.ycrcb_u8(rgb)), ycc)
+    np.testing.assert_array_equal(np.asarray(ycrcb_u8(rgb)), ycc)
     reference = cv2.inRange(cv2.cvtColor(rgb[..., ::-1].copy(), cv2.COLOR_BGR2YCrCb), (0, 133, 77), (255, 173, 127))
-    ours = np.asarray(methods.ycrcb_rule(rgb))
+    ours = np.asarray(ycrcb_rule(rgb))
     np.testing.assert_array_equal(ours, reference > 0)
     assert 0.01 < ours.mean() < 0.5
 

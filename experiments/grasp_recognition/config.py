@@ -56,6 +56,8 @@ class Config:
     n_validation: int = 300          # validation images (their own seed and hand) for tuning
     ladder: bool = True              # the six-rung ladder of where the accuracy goes
     sweeps: bool = True              # accuracy against k, database size, B x L
+    real_photos: str = "none"        # a folder with gtea_grasps/ and hgr_hands/ (../shared/data): hands found
+                                     # on real photos by `hog_jax.find_hands` beside two baselines; none: off
 
     def __post_init__(self):
         if min(self.n_azimuth, self.n_elevation, self.k, self.n_large, self.n_held_out, self.timing_repeats) < 1:
@@ -102,7 +104,8 @@ PRESETS = {
     # that class; LSH with four probes per table tuned on query-like validation images (the fewest probes of
     # 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries: `lsh_probes`)
     "best": {**DATABASE_PRESETS["best"], "metric": "lda", "skin_adaptation": "background", "lsh_tuning": "validation",
-             "lsh_probes": 4, "sweeps": False, "classifier": "scene_cnn", "cnn_epochs": 60},
+             "lsh_probes": 4, "sweeps": False, "classifier": "scene_cnn", "cnn_epochs": 60,
+             "real_photos": "../shared/data"},
 }
 
 

@@ -9,6 +9,28 @@ from experiments.grasp_recognition.config import Config
 from sim.grasping import GRASP_CLASSES
 
 
+REAL_SETS = (("gtea_choose", "gtea_grasps, frames 1-16 (settings chosen here)"),
+             ("gtea_held_out", "gtea_grasps, frames 17-33 (held out)"), ("gtea_all", "gtea_grasps, all 33 frames"),
+             ("hgr_choose", "HGR persons id04-id05 (settings chosen here)"),
+             ("hgr_test", "HGR persons id06-id08 (held out)"))
+REAL_METHODS = (("finder", "`hog_jax.find_hands`"), ("largest_blob", "largest skin blob (GRASP)"),
+                ("ycrcb_rule", "YCrCb rule, largest blob"))
+
+
+def real_photos_text(m: dict) -> str:
+    """The real-photo section: hands found (box IoU >= 0.5) and false boxes per frame of each method on
+    each set; empty when the stage did not run."""
+    if not m.get("real_photos_scored"):
+        return ""
+    rows = [(label, *(f"{m[f'real_{key}_{method}_hands_found']:.3f} / {m[f'real_{key}_{method}_false_boxes_per_frame']:.2f}"
+                      for method, _ in REAL_METHODS)) for key, label in REAL_SETS]
+    no_hand = " / ".join(f"{m[f'real_gtea_no_hand_{method}_not_found_rate']:.2f}" for method, _ in REAL_METHODS)
+    return ("## Hands in real photos\n\nHands found at box IoU >= 0.5 / false boxes per frame (the gtea annotation "
+            "pixels inpainted; on HGR the true box is the skin mask's, hand and forearm):\n\n"
+            + markdown_table(("set", *(name for _, name in REAL_METHODS)), rows)
+            + f"\n\n\"not found\" on {m['real_gtea_no_hand_crops']} gtea crops without a hand: {no_hand}.\n\n")
+
+
 def report(cfg: Config, m: dict, nested: dict, mats: dict) -> str:
     e = nested["orientation_error_deg"]
     rows = [
@@ -75,6 +97,7 @@ for B x L (paper: "quite insensitive" for B in [3, 8], L in [2, 5]); range on th
                   + "\n\nThe rungs that cost the most on the large set: "
                   + "; ".join(f"rung {w + 2} ({m['ladder_rungs'][w + 1]}): {100 * drops[w]:+.1f} points" for w in worst)
                   + ".\n\n")
+    real = real_photos_text(m)
     return f"""# Grasp recognition from one image (GRASP, IROS 2008)
 
 Database: {m['n_database_views']} rendered views ({m['n_views_per_grasp']} per grasp: {cfg.n_azimuth} azimuths x
@@ -98,7 +121,7 @@ Recognised grasp mapped to a robot preshape (GRASP Fig. 2, MAP Fig. 2): share of
 
 {markdown_table(("mapping / hand / set", "accuracy"), robot)}
 
-{sweep_text}Confusion matrix of the large set (rows true {list(GRASP_CLASSES)}, columns recognised, last = no hand found):
+{sweep_text}{real}Confusion matrix of the large set (rows true {list(GRASP_CLASSES)}, columns recognised, last = no hand found):
 
 ```
 {np.array2string(mats['large'])}

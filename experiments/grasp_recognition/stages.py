@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import Any, NamedTuple
 
 import jax
@@ -11,12 +12,13 @@ import numpy as np
 import hog_jax
 import sim
 from experiments.timing import time_call
-from experiments.config import StageResult, parse_config, progress
+from experiments.config import StageResult, flatten_metrics, parse_config, progress
 from experiments.data.grasp_database import VALIDATION_SHAPE
 from experiments.data.grasp_tests import random_set, sequence_set, skin_training_pixels
 from experiments.grasp_recognition import plots
 from experiments.grasp_recognition.config import EULER_NAMES, PRESETS, Config
 from experiments.grasp_recognition.ladder import RUNGS, mask_crops, rung_sets
+from experiments.grasp_recognition.real_photos import GTEA_DIR, HGR_DIR, evaluate_real_photos
 from experiments.grasp_recognition.pieces import accuracy, bar, held_out_views, robot_accuracy, sweeps
 from experiments.grasp_recognition.recogniser import recogniser_of, study_database
 from experiments.grasp_recognition.scoring import score_sets
@@ -178,6 +180,20 @@ def sweep_stage(cfg: Config, s: Setup) -> StageResult:
     return StageResult(m, {"sweeps.png": plots.plot_sweeps(sw, cfg)})
 
 
+def real_photos_stage(cfg: Config) -> StageResult:
+    """Hands found on the real photos of `cfg.real_photos` (`real_photos.evaluate_real_photos`): metrics
+    `real_<set>_<method>_<figure>`; skipped, saying so, when the folder lacks the two sets."""
+    if cfg.real_photos == "none":
+        return StageResult({}, {})
+    data = Path(cfg.real_photos)
+    if not (data / GTEA_DIR).is_dir() or not (data / HGR_DIR).is_dir():
+        print(f"note: {data} lacks {GTEA_DIR}/ or {HGR_DIR}/; the real-photo stage is skipped")
+        return StageResult({"real_photos_scored": False}, {})
+    metrics, figures = evaluate_real_photos(data)
+    metrics.pop("options")
+    return StageResult({"real_photos_scored": True, **flatten_metrics(metrics, "real_")}, figures)
+
+
 def run_experiment(cfg: Config) -> tuple[StageResult, dict]:
     """Every stage: (flat metrics, figures and report; nested per-image results)."""
     t_start = time.perf_counter()
@@ -185,10 +201,11 @@ def run_experiment(cfg: Config) -> tuple[StageResult, dict]:
     recognition, nested = recognition_stage(cfg, s)
     lsh, sweep = lsh_stage(cfg, s), sweep_stage(cfg, s)
     ladder = ladder_stage(cfg, s) if cfg.ladder else StageResult({}, {})
+    real = real_photos_stage(cfg)
     mats = nested.pop("mats")
-    m = {**s.metrics, **recognition.metrics, **lsh.metrics, **sweep.metrics, **ladder.metrics}
+    m = {**s.metrics, **recognition.metrics, **lsh.metrics, **sweep.metrics, **ladder.metrics, **real.metrics}
     m["time_total_s"] = time.perf_counter() - t_start
-    figures = {**recognition.figures, **sweep.figures, **ladder.figures}
+    figures = {**recognition.figures, **sweep.figures, **ladder.figures, **real.figures}
     return StageResult(m, figures, report(cfg, m, nested, mats)), nested
 
 

@@ -15,8 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from experiments.config import progress
+from experiments.data.hand_photos import Photo, pad_photos
 from experiments.skin_real import methods
-from experiments.skin_real.data import Photo, pad_photos
 from experiments.skin_real.metrics import confusion_counts, hand_found
 from hog_jax import skin_log_ratio
 

@@ -35,8 +35,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from experiments.skin_real.data import REACH_CLIP, hgr_names, hgr_split, load_gtea, load_photo, scaled
-from experiments.skin_real.methods import ycrcb_rule
+from experiments.data.hand_photos import REACH_CLIP, hgr_names, hgr_split, load_gtea, load_photo, scaled
+from experiments.peers.ycrcb import ycrcb_rule
 from hog_jax import (SkinRules, adapt_to_skin, fit_skin_model, fit_skin_rules, skin_log_ratio, skin_rule_mask,
                      static_skin)
 from lfd_jax import UCI_FILE, iter_video, load_mask_pixels, load_uci_pixels
@@ -148,7 +148,7 @@ _ycrcb = jax.jit(lambda x: ycrcb_rule(jnp.round(x)))
 
 
 def ycrcb_masks(images) -> list:
-    """The YCrCb rule's masks (Chai & Ngan 1999, `methods.ycrcb_rule`), median filtered as ours."""
+    """The YCrCb rule's masks (Chai & Ngan 1999, `experiments.peers.ycrcb.ycrcb_rule`), median filtered as ours."""
     return [median_filtered(m) for m in per_pixel(images, _ycrcb)]
 
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from experiments.config import StageResult, flatten_metrics, parse_config, progress
+from experiments.data.hand_photos import hgr_names, load_photo, missing_data
 from experiments.skin_real import plots
 from experiments.skin_real.config import PRESETS, Config
-from experiments.skin_real.data import hgr_names, load_photo, missing_data
 from experiments.skin_real.evaluate import GRABCUT, METHODS, OURS, Evaluation, evaluate_photos
 from experiments.skin_real.metrics import curve_scores, per_photo_iou, pooled_scores, threshold_counts
 from experiments.skin_real.one_model import VARIANTS, run_one_model

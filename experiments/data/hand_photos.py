@@ -1,4 +1,5 @@
-"""Readers of the two real data sets of the study, and photos padded into batches for JAX.
+"""Readers of the real hand photo sets (UCI skin pixels, HGR hand photos, gtea_grasps frames), and photos
+padded into batches for JAX.
 
 * `skin_nonskin_uci.tsv` (UCI Skin Segmentation, Bhatt & Dhall): one pixel per line, a header
   `R G B T`, but the colour columns are in the order B, G, R as the UCI documentation says
@@ -9,8 +10,8 @@
 
 Photos come in many sizes (47 of the 106 are 640 x 480, the rest nearly all different), so a batch
 is padded to one size by edge replication (the last row and column repeated): a per-pixel model
-gives the padding the values of the border, and `methods.filtered` re-replicates after every
-median pass, so a padded photo's pixels get exactly what the unpadded photo would. `valid` marks
+gives the padding the values of the border, and `experiments.skin_real.methods.filtered` re-replicates after every
+median pass (`experiments.skin_real`), so a padded photo's pixels get exactly what the unpadded photo would. `valid` marks
 the real pixels, and the truth is False outside them.
 """
 from __future__ import annotations
