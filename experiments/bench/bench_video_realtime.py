@@ -18,6 +18,9 @@ warm-up call of each timed apart; median of `--repeats`):
   of face, hand and other hand; `hand_ends`). The skin model (`lfd_jax.fit_real_skin_model`) and the
   recording's colour models (`fit_video_models`, its first third the learning phase) are fitted
   before and timed apart (`fit_models_s`). To time another front end, replace `ours_front_end`.
+- `ours_segmentation`: the same scan alone (`segment_recording` with the same models and options:
+  background model, colour scores, level sets), so that the front end's time splits into the
+  segmentation and what follows it (blobs, tracking, hand ends).
 - `ours_background`: `hog_jax.video.run_background` alone, the setting for real video
   (`BackgroundOptions.real_video()`, K = 5, with its 3 x 3 median).
 - `mog2`, `knn`: OpenCV `createBackgroundSubtractorMOG2` / `KNN` with their defaults, `apply` per frame
@@ -28,7 +31,9 @@ warm-up call of each timed apart; median of `--repeats`):
   reported as `mediapipe_init_s`; a black frame has no hand, so nothing is tracked into the video).
 The JAX sides' warm-up call compiles (reported as `compile_s`); the frames/s exclude it. The frames
 are in memory before the timing (decoding is not timed on any side). OpenCV uses `--cv-threads`
-(default: all cores); XLA and MediaPipe's TFLite choose their own thread counts.
+(default: all cores); XLA and MediaPipe's TFLite choose their own thread counts. The report gives the
+machine's one-minute load average as each clip's timing starts: other processes on the same cores
+slow every side, the JAX ones most.
 
 Hands against truth (`experiments.peers.mediapipe_hands.score_boxes`: greedy one-to-one matching by box
 IoU, a hand found at IoU >= 0.5): MediaPipe's boxes (the bounding box of its 21 landmarks) on
@@ -78,7 +83,8 @@ class BenchConfig:
     repeats: int = 5
     fit: str = "pad"
     cv_threads: int = 0  # 0: all cores
-    sides: tuple[str, ...] = ("ours_front_end", "ours_background", "mog2", "knn", "mediapipe_hands")
+    sides: tuple[str, ...] = ("ours_front_end", "ours_segmentation", "ours_background", "mog2", "knn",
+                              "mediapipe_hands")
     annotations: str = "experiments/data/video/reach_clip_boxes.csv"
     gtea: bool = True
 
@@ -152,27 +158,46 @@ def load_sbi(cfg: BenchConfig, n: int) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ sides
-def ours_front_end(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
-    """Ours: the mono front end for real video (`track_mono`), the recording's models fitted before
-    (their time in `info["fit_models_s"]`)."""
+def real_video_models(cfg: BenchConfig, frames: np.ndarray, info: dict):
+    """(`VideoOptions.real_video()`, the recording's `VideoModels`), fitted once per clip and kept in
+    `info` (their time in `info["fit_models_s"]`)."""
     import jax
 
     import hog_jax.video as hv
     from lfd_jax import fit_real_skin_model
 
-    options = hv.VideoOptions.real_video()
-    began = time.perf_counter()
-    skin = fit_real_skin_model(cfg.data_dir, seed=cfg.seed)
-    start = max(options.person_frames + 1, len(frames) // 3)
-    models, _ = hv.fit_video_models(jax.random.key(cfg.seed), skin, frames, start, options)
-    jax.block_until_ready(models)
-    info["fit_models_s"] = time.perf_counter() - began
+    if "models" not in info:
+        options = hv.VideoOptions.real_video()
+        began = time.perf_counter()
+        skin = fit_real_skin_model(cfg.data_dir, seed=cfg.seed)
+        start = max(options.person_frames + 1, len(frames) // 3)
+        models, _ = hv.fit_video_models(jax.random.key(cfg.seed), skin, frames, start, options)
+        info["models"] = options, jax.block_until_ready(models)
+        info["fit_models_s"] = time.perf_counter() - began
+    return info["models"]
+
+
+def ours_front_end(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
+    """Ours: the mono front end for real video (`track_mono`), the recording's models fitted before."""
+    import hog_jax.video as hv
+
+    options, models = real_video_models(cfg, frames, info)
     tracking = hv.HandFaceOptions(min_area=max(4, round(1e-3 * frames.shape[1] * frames.shape[2])))
     return Side("track_mono with VideoOptions.real_video() (background K = 5 with warm-up, shadows; colour "
                 "scores; level sets; frames 1..T-1 segmented) -> connected_blobs (skin) -> track (face, hand, "
                 "other hand) -> hand_ends; the skin model (fit_real_skin_model) and the recording's colour "
                 "models fitted before, apart", lambda _: None,
                 lambda _, x: hv.track_mono(models, x, 1, options, tracking, chunk=len(x)), True)
+
+
+def ours_segmentation(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
+    """Ours: `ours_front_end`'s segmentation scan alone (`segment_recording`), the same models."""
+    import hog_jax.video as hv
+
+    options, models = real_video_models(cfg, frames, info)
+    return Side("segment_recording with VideoOptions.real_video() (ours_front_end's scan: background, colour "
+                "scores, level sets; no blobs, tracking or hand ends)", lambda _: None,
+                lambda _, x: hv.segment_recording(models, x, 1, options).labels, True)
 
 
 def ours_background(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
@@ -215,7 +240,7 @@ def mediapipe_hands(cfg: BenchConfig, frames: np.ndarray, info: dict) -> Side:
 
 
 SIDES: dict[str, Callable[[BenchConfig, np.ndarray, dict], Side]] = {
-    "ours_front_end": ours_front_end, "ours_background": ours_background,
+    "ours_front_end": ours_front_end, "ours_segmentation": ours_segmentation, "ours_background": ours_background,
     "mog2": _opencv("createBackgroundSubtractorMOG2"), "knn": _opencv("createBackgroundSubtractorKNN"),
     "mediapipe_hands": mediapipe_hands}
 
@@ -252,9 +277,10 @@ def speed_stage(cfg: BenchConfig, clip: str, frames: np.ndarray) -> dict:
     frames = np.ascontiguousarray(frames[:cfg.frames])
     info: dict = {}
     sides = {name: SIDES[name](cfg, frames, info) for name in cfg.sides}
-    print(f"{clip}: {len(frames)} frames of {frames.shape[2]} x {frames.shape[1]}", flush=True)
+    load = os.getloadavg()[0]
+    print(f"{clip}: {len(frames)} frames of {frames.shape[2]} x {frames.shape[1]}; load average {load:.2f}", flush=True)
     timings = round_robin(sides, frames, cfg.repeats)
-    out = {"frames": len(frames), "what": {n: s.what for n, s in sides.items()}}
+    out = {"frames": len(frames), "load_average_1min": load, "what": {n: s.what for n, s in sides.items()}}
     for name, t in timings.items():
         out[f"fps_{name}"] = len(frames) / t.median_s
         out[f"ms_per_frame_{name}"] = 1000 * t.median_s / len(frames)
@@ -384,7 +410,7 @@ def report(cfg: BenchConfig, speed: dict, gtea: dict, reach: dict, meta: dict) -
         lines += [f"Real time (>= {REAL_TIME_FPS} frames/s through the whole front end): "
                   + ("met" if met else "not met") + " (" + ", ".join(f"{c} {v:.1f}" for c, v in fps.items()) + ")", ""]
     for clip, s in speed.items():
-        keys = ("fit_models_s", "mediapipe_init_s", "mediapipe_hands_per_frame")
+        keys = ("load_average_1min", "fit_models_s", "mediapipe_init_s", "mediapipe_hands_per_frame")
         extra = [f"{k} {_fmt(s[k])}" for k in keys if k in s]
         lines.append(f"- {clip}: " + "; ".join(extra))
     first = next(iter(speed.values()), {})

@@ -69,22 +69,33 @@ def dirac(phi: Float[ArrayLike, "*shape"], epsilon: float = 1.5) -> Float[Array,
     return cos * cos / epsilon
 
 
-def shift(f, axis: int, step: int):
-    """f moved by one pixel along `axis` (step +1: f[i + 1], -1: f[i - 1]), the border replicated
-    (Neumann condition). Slices and a concatenation: XLA compiles them faster than an edge pad."""
-    n = f.shape[axis]
-    edge, body = ((n - 1, n), (1, n)) if step > 0 else ((0, 1), (0, n - 1))
-    parts = [jax.lax.slice_in_dim(f, *body, axis=axis), jax.lax.slice_in_dim(f, *edge, axis=axis)]
-    return jnp.concatenate(parts if step > 0 else parts[::-1], axis=axis)
+def pad_edge(f, rows: bool = True, cols: bool = True):
+    """f (..., H, W) with its first and last rows (`rows`) and then columns (`cols`) repeated once
+    outside: the replicated border (Neumann condition) of the central differences. One padded copy
+    whose slices are the shifted neighbours: XLA:CPU fuses slices into their consumers, where a
+    concatenation per shift was a copy of the whole array each (the same bits, a faster step)."""
+    if rows:
+        f = jnp.concatenate([f[..., :1, :], f, f[..., -1:, :]], axis=-2)
+    if cols:
+        f = jnp.concatenate([f[..., :1], f, f[..., -1:]], axis=-1)
+    return f
+
+
+def _neighbours(f):
+    """(f[i + 1, j], f[i - 1, j], f[i, j + 1], f[i, j - 1]) over the last two axes, replicated border."""
+    p = pad_edge(f)
+    return p[..., 2:, 1:-1], p[..., :-2, 1:-1], p[..., 1:-1, 2:], p[..., 1:-1, :-2]
 
 
 def gradient(f):
     """Central differences (d/drow, d/dcol) over the last two axes, replicated border."""
-    return ((shift(f, -2, 1) - shift(f, -2, -1)) / 2.0, (shift(f, -1, 1) - shift(f, -1, -1)) / 2.0)
+    below, above, right, left = _neighbours(f)
+    return (below - above) / 2.0, (right - left) / 2.0
 
 
 def laplacian(f):
-    return shift(f, -2, 1) + shift(f, -2, -1) + shift(f, -1, 1) + shift(f, -1, -1) - 4.0 * f
+    below, above, right, left = _neighbours(f)  # the same padded copy as `gradient`'s (XLA's CSE)
+    return below + above + right + left - 4.0 * f
 
 
 def unit_normal(phi):
@@ -96,7 +107,9 @@ def unit_normal(phi):
 
 
 def divergence(ny, nx):
-    return gradient(ny)[0] + gradient(nx)[1]
+    """d ny / drow + d nx / dcol, central differences, replicated border (each padded along its own axis)."""
+    rows, cols = pad_edge(ny, cols=False), pad_edge(nx, rows=False)
+    return (rows[..., 2:, :] - rows[..., :-2, :]) / 2.0 + (cols[..., 2:] - cols[..., :-2]) / 2.0
 
 
 @jax.jit
