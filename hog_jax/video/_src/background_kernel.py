@@ -13,6 +13,8 @@ every per-component quantity is one elementwise loop over the pixels.
 """
 from __future__ import annotations
 
+import functools
+
 from typing import NamedTuple
 
 import jax
@@ -205,7 +207,11 @@ def log_density_pixels_last(w, mu, var, x, scale: float = 255.0):
     per_channel = var / (C * scale * scale)
     log_comp = -0.5 * C * jnp.log(2 * jnp.pi * per_channel) - 0.5 * C * d2 / var
     log_w = jnp.where(w > 0, jnp.log(jnp.where(w > 0, w, 1.0)), -jnp.inf)
-    return jax.nn.logsumexp(log_w + log_comp, axis=0)
+    terms = log_w + log_comp
+    # logsumexp over the K components unrolled row by row (as `_rows_sum`); all -inf gives -inf
+    top = functools.reduce(jnp.maximum, [terms[k] for k in range(terms.shape[0])])
+    top = jnp.where(jnp.isfinite(top), top, 0.0)
+    return top + jnp.log(_rows_sum(jnp.exp(terms - top)))
 
 
 def scan_pixels_last(w, mu, var, frames, masks, o: KernelOptions, t0=0):
