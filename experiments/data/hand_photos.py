@@ -157,8 +157,22 @@ def annotation_mask(bgr: np.ndarray, boxes: list[tuple[int, int, int, int]]) -> 
     return (band > 0) | drawn
 
 
-def load_gtea(root: str | Path, scale: float = 1.0) -> list[GteaFrame]:
-    """The frames of gtea_grasps with their hand boxes (labels.csv) and annotation masks, scaled."""
+class GteaLabels(NamedTuple):
+    """One labelled gtea_grasps frame as stored: name (its stem), bgr (H, W, 3) uint8 with the
+    annotation drawn in, hands and objects: lists of (x0, y0, x1, y1) inclusive boxes (labels.csv)."""
+
+    name: str
+    bgr: np.ndarray
+    hands: list
+    objects: list
+
+
+def read_gtea(root: str | Path) -> list[GteaLabels]:
+    """The labelled frames of gtea_grasps, in name order (`GteaLabels`).
+
+    Raises:
+        ValueError: naming the image that cannot be read.
+    """
     import csv
     folder = Path(root) / GTEA_DIR
     rows: dict[str, list[dict]] = {}
@@ -173,11 +187,19 @@ def load_gtea(root: str | Path, scale: float = 1.0) -> list[GteaFrame]:
         hands = [tuple(int(r[k]) for k in ("hand_xmin", "hand_ymin", "hand_xmax", "hand_ymax")) for r in labels]
         objects = [tuple(int(r[k]) for k in ("obj_xmin", "obj_ymin", "obj_xmax", "obj_ymax")) for r in labels
                    if r["obj_xmin"] not in ("", "-1")]
+        frames.append(GteaLabels(Path(image).stem, bgr, hands, objects))
+    return frames
+
+
+def load_gtea(root: str | Path, scale: float = 1.0) -> list[GteaFrame]:
+    """The frames of gtea_grasps with their hand boxes (labels.csv) and annotation masks, scaled."""
+    frames = []
+    for name, bgr, hands, objects in read_gtea(root):
         ignore = annotation_mask(bgr, hands + objects)
         in_box = np.zeros(bgr.shape[:2], bool)
         for x0, y0, x1, y1 in hands:
             in_box[y0:y1 + 1, x0:x1 + 1] = True
         rgb, ignore, in_box = scaled(bgr[..., ::-1].astype(np.float32), scale, (ignore, in_box))
         boxes = np.array([(y0, x0, y1 + 1, x1 + 1) for x0, y0, x1, y1 in hands], np.float64) * scale
-        frames.append(GteaFrame(Path(image).stem, rgb, ignore, np.round(boxes).astype(int), in_box))
+        frames.append(GteaFrame(name, rgb, ignore, np.round(boxes).astype(int), in_box))
     return frames

@@ -46,7 +46,8 @@ import jax
 import numpy as np
 
 import hog_jax
-from experiments.data.hand_photos import annotation_mask, hgr_names, load_photo, person_of
+from experiments.data.hand_photos import (GTEA_DIR, HGR_DIR, annotation_mask, hgr_names, load_photo, person_of,
+                                          read_gtea)
 from experiments.peers.mediapipe_hands import score_boxes
 from experiments.peers.ycrcb import ycrcb_rule
 from lfd_common import enable_compilation_cache
@@ -57,7 +58,6 @@ CHOOSE_GTEA = 16                                # the first 16 gtea frames (sort
 TEST_PERSONS = ("id06", "id07", "id08")
 FINDER_OPTIONS = hog_jax.HandOptions()          # its defaults were chosen on the split above
 WORK_SIDE = 320                                 # the working resolution's longer side, every method
-GTEA_DIR, HGR_DIR = "gtea_grasps", "hgr_hands"
 
 
 class RealFrames(NamedTuple):
@@ -92,25 +92,13 @@ def _iou_xyxy(a, b) -> float:
 
 def load_gtea_clean(data: str | Path) -> RealFrames:
     """The gtea_grasps frames with their annotation inpainted, and their true hand boxes."""
-    import csv
-    folder = Path(data) / GTEA_DIR
-    rows: dict[str, list[dict]] = {}
-    with open(folder / "labels.csv", newline="") as f:
-        for row in csv.DictReader(f):
-            rows.setdefault(row["image"], []).append(row)
     rgb, boxes, names = [], [], []
-    for image, labels in sorted(rows.items()):
-        bgr = cv2.imread(str(folder / image), cv2.IMREAD_COLOR)
-        if bgr is None:
-            raise ValueError(f"data: cannot read {folder / image}")
-        hands = [tuple(int(r[k]) for k in ("hand_xmin", "hand_ymin", "hand_xmax", "hand_ymax")) for r in labels]
-        objects = [tuple(int(r[k]) for k in ("obj_xmin", "obj_ymin", "obj_xmax", "obj_ymax")) for r in labels
-                   if r["obj_xmin"] not in ("", "-1")]
+    for name, bgr, hands, objects in read_gtea(data):
         drawn = annotation_mask(bgr, hands + objects + _green_outlines(bgr, objects))
         clean = cv2.inpaint(bgr, drawn.astype(np.uint8), 3, cv2.INPAINT_TELEA)
         rgb.append(clean[..., ::-1].copy())
         boxes.append(np.array([(y0, x0, y1 + 1, x1 + 1) for x0, y0, x1, y1 in hands], np.int64))
-        names.append(Path(image).stem)
+        names.append(name)
     return RealFrames(rgb, boxes, names)
 
 
