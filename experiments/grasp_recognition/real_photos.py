@@ -6,7 +6,7 @@ largest skin blob and a YCrCb rule, scored against true hand boxes.
 Data (`../shared/data`, see its README):
 - `gtea_grasps`: 33 real egocentric 640 x 480 frames, 52 labelled hand boxes (wrist to fingertips).
   The upstream frames have the annotation (blue hand boxes, green object boxes, red text) drawn into
-  the pixels: `skin_real.data.annotation_mask` finds it from the label file's boxes (and here also
+  the pixels: `experiments.data.hand_photos.annotation_mask` finds it from the label file's boxes (and here also
   from the pure-green outline of an object drawn without a box in the labels), and it is inpainted
   (OpenCV Telea) before any method sees the frame, so that no drawn line splits or joins a blob.
   Hands the labels leave out (a visible hand with no row) count as false boxes when found.
