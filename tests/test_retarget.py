@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from experiments.data import tabletop as tt
 from phmm_jax import DEFAULT_BASE_FRAME, MARKER_ORDER, retarget, solve_arm
@@ -158,6 +158,7 @@ def _pose(draw_unit, length, kind):
 @settings(max_examples=12, deadline=None)
 @given(seed=st.integers(0, 2**16), length=st.floats(0.02, 0.3),
        kind=st.sampled_from(["free", "straight", "hand at shoulder", "elbow at shoulder"]))
+@example(seed=13105, length=0.28125, kind="straight")  # the largest float32 elbow error seen (1.2e-5 m)
 def test_solve_arm_singular_poses_are_finite_and_flagged(seed, length, kind):
     rng = np.random.default_rng(seed)
 
@@ -171,7 +172,9 @@ def test_solve_arm_singular_poses_are_finite_and_flagged(seed, length, kind):
         assert np.all(np.isfinite(np.asarray(value)))
     assert bool(arm.singular) == (kind != "free")
     elbow, grasp, _ = _fk(np.asarray(arm.shoulder, float), float(arm.elbow), float(arm.wrist))
-    np.testing.assert_allclose(elbow, np.asarray(arm.robot_elbow), atol=1e-5)
+    # float32 at a straight arm, where the angles are ill-conditioned: up to 1.2e-5 m (a few thousand
+    # straight poses: 3e-6 m but for the pinned example), far below anything a robot resolves
+    np.testing.assert_allclose(elbow, np.asarray(arm.robot_elbow), atol=3e-5)
     if kind != "hand at shoulder" and abs(A - B) < length < A + B:  # reachable: the grasp point is on the hand
         np.testing.assert_allclose(grasp, np.asarray(r), atol=1e-4)
 
