@@ -73,6 +73,7 @@ HEAVY_FILES_FIRST = (
     "test_phmm_inference.py",
     "test_docs_examples.py",
     "test_video_segmentation.py",
+    "test_video_streaming.py",
     "test_lfd_demonstration.py",
     "test_real_arm_actions.py",
     "test_phmm_training.py",
