@@ -10,8 +10,8 @@ Public API (shapes: B images, H x W pixels, D feature length, N database points,
 * Segmentation: `fit_skin_model`, `segment` -> `Segmentation`, `adapt_skin_model`,
   `segment_adapted`, `crop_components`; mixtures `GMM`, `fit_gmm`, `gmm_log_prob`; persistence
   `save_skin_model` / `load_skin_model`; one person's skin: `adapt_to_skin`, `adapt_to_face`;
-  skin-coloured non-skin: `SkinRules`, `fit_skin_rules`, `skin_rule_mask`, `static_skin`; the
-  model's colour (`skin_features`: (Cr, Cb), or with luma (Cr, Cb, Y)).
+  skin-coloured non-skin: `SkinRules`, `fit_skin_rules`, `skin_rule_mask`, `static_skin`; a scene's
+  light: `gray_world_gains`, `balanced_skin_model`; the model's colour (`skin_features`: (Cr, Cb), or with luma (Cr, Cb, Y)).
 * HOG: `HOGConfig`, `hog(images (B, H, W))` -> (B, D), `hog_dim`.
 * Search: `exact_search`, `build_index` -> `LSHIndex`, `query` -> `LSHResult`, `tune(options=
   TuneOptions(...))` -> `TuneResult`, `recall_at_k`; `mesh=` splits the database over devices.
@@ -48,13 +48,14 @@ from hog_jax._src.segment import (GMM, Segmentation, SkinModel, SkinStructure, c
                                   save_skin_model, segment, skin_features, skin_log_ratio)
 from hog_jax._src.skin_adapt import adapt_skin_model, adapt_to_face, adapt_to_skin, segment_adapted
 from hog_jax._src.skin_rules import SkinRules, fit_skin_rules, skin_rule_mask, static_skin
+from hog_jax._src.white_balance import balanced_skin_model, gray_world_gains
 
 __all__ = [
     "GMM", "HOGConfig", "HandBoxes", "HandOptions", "KNNModel", "LSHIndex", "LSHResult", "LinearMetric", "Prediction", "Segmentation",
     "SkinModel", "SkinRules", "SkinStructure", "TuneOptions", "TuneResult", "adapt_skin_model", "adapt_to_face",
-    "adapt_to_skin", "apply_metric", "build_index",
+    "adapt_to_skin", "apply_metric", "balanced_skin_model", "build_index",
     "crop_components", "euler_to_quat", "exact_search", "feature_limit", "find_hands", "fit", "fit_gmm", "fit_metric",
-    "fit_skin_model", "fit_skin_rules", "gmm_log_prob", "hog", "hog_dim", "intra_class_sigma", "load_skin_model",
+    "fit_skin_model", "fit_skin_rules", "gmm_log_prob", "gray_world_gains", "hog", "hog_dim", "intra_class_sigma", "load_skin_model",
     "mean_rotation",
     "median3", "predict", "quat_to_euler", "query", "recall_at_k", "rgb_to_chroma", "save_skin_model", "segment",
     "segment_adapted", "skin_features", "skin_log_ratio", "skin_rule_mask", "static_skin", "tune", "vote",

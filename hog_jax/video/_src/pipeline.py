@@ -14,7 +14,8 @@ unit cube, so that they compete on one scale (equal priors, as eq. 2 assumes):
   density times |det| of the linear map from RGB to YCrCb (`skin_log_density`; a (Cr, Cb) model is
   uniform in Y), so that it competes with the RGB densities of the person and the background on one
   scale (a (Cr, Cb, Y) model carries the same information as an RGB one: the TR's skin GMM in a
-  rotated colour space). With `adapt_skin` the mixture is first adapted to this person (Reynolds' relevance MAP,
+  rotated colour space). With `white_balance` the mixture is first seen under the recording's light
+  (gray-world gains of the frames before `start`, `hog_jax.balanced_skin_model`); with `adapt_skin` it is then adapted to this person (Reynolds' relevance MAP,
   `hog_jax.adapt_to_skin`) on the pixels the generic model is most sure of in the frames before
   `start` (log ratio above its threshold by `skin_margin`): the person's own face and hands;
 * person, background: the GMMs learnt at the start of each recording, sizes by BIC (TR §3.4,
@@ -74,6 +75,7 @@ from hog_jax.video._src import levelset_evolution as levelset
 from hog_jax.video._src.levelset_evolution import LevelSetOptions, LevelSetStructure
 from hog_jax._src.segment import GMM, SkinModel, gmm_log_prob, median3, skin_features, skin_log_ratio
 from hog_jax._src.skin_adapt import adapt_to_skin
+from hog_jax._src.white_balance import YCRCB_FROM_RGB, balanced_skin_model, gray_world_gains
 from hog_jax.video._src.stereo import StereoCamera
 from hog_jax.video._src.tracks import HandFaceOptions, HandFacePositions, hand_face_chunk
 from lfd_common import as_array, check_int, check_real, progress
@@ -129,6 +131,12 @@ class VideoOptions(NamedTuple):
             docstring; `hog_jax.adapt_to_skin`). Off by default: on the validation recordings it did
             not help in video (rendered clips: face IoU 0.63 against 0.78 without; the real reach
             clip: the hands stay unfound), although it does on still photos (`experiments.skin_real`).
+        white_balance: see the skin mixture under the recording's light: gray-world gains of the
+            frames before `start` (`hog_jax.gray_world_gains`) turn it into the model of this scene's
+            colours (`hog_jax.balanced_skin_model`; a (Cr, Cb, Y) model), before any adaptation. Off by
+            default (rendered recordings are lit white); on in `real_video()`: on the real reach clip's
+            warm, dithered frames the unbalanced model marks 7-9 % of the pixels in the face and hand
+            boxes as skin and 6 % of the whole frame, balanced 21-35 % against 3 %.
         skin_margin: nats, >= 0: the pixels the adaptation learns from have a log ratio at least this
             far above the skin model's threshold.
         skin_relevance: the adaptation's MAP relevance, pixels, > 0 (1024: chosen on validation photos
@@ -153,6 +161,7 @@ class VideoOptions(NamedTuple):
     ghost_quantile: float | None = None
     skin_match_quantile: float = 0.1
     adapt_skin: bool = False
+    white_balance: bool = False
     skin_margin: float = 2.0
     skin_relevance: float = 1024.0
     background: BackgroundOptions = BackgroundOptions()
@@ -164,7 +173,8 @@ class VideoOptions(NamedTuple):
     def real_video(cls, **changes) -> VideoOptions:
         """The options for real camera video: the background model of `BackgroundOptions.real_video()`
         with K = 5 (`BackgroundStructure.real_video()`, chosen on six real sequences), the colour
-        models' ghost rule at 0.01, the fine scale's iterations after the coarse one capped at
+        models' ghost rule at 0.01, the skin mixture seen under the recording's light (`white_balance`),
+        the fine scale's iterations after the coarse one capped at
         `REAL_VIDEO_FINE_IT_MAX` (`LevelSetOptions.fine_it_max`), the rest the defaults, then
         `changes` (field = value).
 
@@ -178,6 +188,7 @@ class VideoOptions(NamedTuple):
         """
         real = cls(background=BackgroundOptions.real_video(),
                    background_components=BackgroundStructure.real_video().n_components, ghost_quantile=0.01,
+                   white_balance=True,
                    levelset=cls._field_defaults["levelset"]._replace(fine_it_max=REAL_VIDEO_FINE_IT_MAX))
         return real._replace(**changes)
 
@@ -303,7 +314,8 @@ def fit_video_models(key: Key[Array, ""], skin: SkinModel, frames: Real[ArrayLik
     `options.person_frames` frames before `start` (median-filtered) is the person, the rest the
     background, both without the pixels the skin mixture matches (`VideoOptions.skin_match_quantile`);
     both GMMs are chosen by BIC over `candidates` (`fit_person_background_models`). With
-    `options.adapt_skin` the skin mixture is adapted to the person first (module docstring).
+    `options.white_balance` the skin mixture is first seen under the recording's light, with
+    `options.adapt_skin` adapted to the person (module docstring).
 
     Args:
         key: a `jax.random` key.
@@ -332,6 +344,8 @@ def fit_video_models(key: Key[Array, ""], skin: SkinModel, frames: Real[ArrayLik
     _, foreground = run_background(arr[:start], structure=structure, options=options.background)
     person = np.asarray(median3(foreground[start - n:start]))
     frames_n = arr[start - n:start]
+    if options.white_balance:
+        skin = balanced_skin_model(skin, gray_world_gains(arr[:start]))
     if options.adapt_skin:
         skin = person_skin(skin, frames_n, options, moving=person)
     features = skin_features(frames_n, skin.skin.means.shape[-1] == 3)
@@ -370,10 +384,7 @@ def _planes(frame):
 
 # log |det| of the linear map from RGB / 255 to (Cr, Cb, Y) / 255 (BT.601 with OpenCV's coefficients,
 # `hog_jax.skin_features`): the skin mixture's density over YCrCb times this is a density over RGB
-_YCRCB_FROM_RGB = np.array([[0.713 * (1 - 0.299), -0.713 * 0.587, -0.713 * 0.114],
-                            [-0.564 * 0.299, -0.564 * 0.587, 0.564 * (1 - 0.114)],
-                            [0.299, 0.587, 0.114]])
-_LOG_DET_YCRCB = float(np.log(abs(np.linalg.det(_YCRCB_FROM_RGB))))
+_LOG_DET_YCRCB = float(np.log(abs(np.linalg.det(YCRCB_FROM_RGB))))
 
 
 def skin_log_density(models: VideoModels, planes: Sequence[Float[Array, "*P"]]) -> Float[Array, "*P"]:
