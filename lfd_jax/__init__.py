@@ -49,12 +49,12 @@ from lfd_jax._src.openpose import (BODY_25, COCO_18, HAND_21, OPENPOSE_PARTS, Ke
                                    load_openpose_folder, load_reach_csv, load_reach_npz, make_tracks,
                                    read_openpose_frame, select_keypoints)
 from lfd_jax._src.pictures import LABEL_COLOURS, VideoWriter, grey, overlay, truth_coded, write_video
-from lfd_jax._src.skin import (UCI_FILE, ThresholdedSkin, best_iou_threshold, fit_real_skin_model, fit_thresholded_skin,
+from lfd_jax._src.skin import (REAL_SKIN_PERSONS, UCI_FILE, ThresholdedSkin, best_iou_threshold, fit_real_skin_model, fit_thresholded_skin,
                                load_mask_pixels, load_uci_pixels)
 
 __all__ = [
     "BODY_25", "COCO_18", "HAND_21", "IMAGE_SUFFIXES", "KeypointTracks", "LABEL_COLOURS", "MarkerRecording",
-    "OPENPOSE_PARTS", "ReachMovement", "StereoFrames", "ThresholdedSkin", "UCI_FILE", "UNIT_TO_METRES",
+    "OPENPOSE_PARTS", "REAL_SKIN_PERSONS", "ReachMovement", "StereoFrames", "ThresholdedSkin", "UCI_FILE", "UNIT_TO_METRES",
     "VideoFrames", "VideoInfo", "VideoWriter", "best_iou_threshold", "crop_to_reach",
     "drop_untracked_keypoints", "drop_untracked_markers", "fill_gaps", "fill_track_gaps", "fit_real_skin_model",
     "fit_thresholded_skin", "gap_runs", "grey", "is_openpose_folder", "iter_image_folder", "iter_stereo_videos",

@@ -18,8 +18,9 @@ TRACKED_PARTS = {"face": FACE, "right_hand": HAND, "left_hand": OTHER_HAND}
 MIN_AREA_SHARE = 1e-3  # skin blobs smaller than this share of the frame are not tracked (specks of the wall)
 
 
-def track_clip(cfg, frames: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """(labels (T, H, W) in `REGIONS` order, part -> (T, 2) tracked (x, y), NaN where not tracked): the
+def track_clip(cfg, frames: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+    """(labels (T, H, W) in `REGIONS` order, part -> (T, 2) tracked (x, y), NaN where not tracked, the
+    first segmented frame): the
     mono front end for real video (`VideoOptions.real_video()`, the one skin model fitted on real pixels
     and adapted to the person, `track_mono` with the hands at the far end of the arm)."""
     skin = fit_real_skin_model(cfg.real_data, seed=cfg.seed)
@@ -32,7 +33,7 @@ def track_clip(cfg, frames: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarra
     position = np.asarray(out.tracks.position, float)
     position[:, [HAND, OTHER_HAND]] = out.hands
     return out.labels, {part: np.where(out.tracked[:, k, None], position[:, k], np.nan)
-                        for part, k in TRACKED_PARTS.items()}
+                        for part, k in TRACKED_PARTS.items()}, start
 
 
 def reach_stage(cfg, plots) -> StageResult:
@@ -42,10 +43,11 @@ def reach_stage(cfg, plots) -> StageResult:
         print(f"note: {path} not found; the reach clip is skipped")
         return StageResult({"reach_scored": False})
     frames = load_video(path).frames
-    labels, positions = track_clip(cfg, frames)
+    labels, positions, start = track_clip(cfg, frames)
     boxes = reach_clip.clip_boxes()
     scores = reach_clip.score_tracks(positions, boxes)
-    metrics = {"reach_scored": True, "reach_frames": len(frames)}
+    metrics = {"reach_scored": True, "reach_frames": len(frames), "reach_start": start,
+               "reach_annotated_before_start": int(np.sum(boxes.frames < start))}
     for part, s in scores.items():
         metrics[f"reach_{part}_on_part"] = s["on_part"]
         metrics[f"reach_{part}_centre_distance_px"] = s["centre_distance_px"]
