@@ -32,6 +32,7 @@ class Config:
     real_sequences: tuple[str, ...] = REAL_SEQUENCES  # real_sequences.SEQUENCES names scored
     real_step: int = 1                   # score every real_step-th evaluated frame (every frame is processed)
     real_max_frames: int = 0             # process at most this many frames per sequence (0: all)
+    real_person_start: int = 50          # the SBI sequences' first frame segmented by the whole front end
     sheet_frames: int = 12               # frames in the contact sheet
 
     def __post_init__(self):
@@ -49,6 +50,7 @@ class Config:
             raise ValueError(f"real_sequences: unknown {sorted(unknown)}; expected names of {sorted(real_sequences.SEQUENCES)}")
         check_int(self.real_step, "real_step", min_value=1)
         check_int(self.real_max_frames, "real_max_frames", min_value=0)
+        check_int(self.real_person_start, "real_person_start", min_value=2)
         if not (self.rendered or self.real):
             raise ValueError("rendered, real: at least one part must run")
         check_int(self.sheet_frames, "sheet_frames", min_value=1, max_value=60)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from experiments.config import markdown_table
 from experiments.video_segmentation.real_background import METHODS as BACKGROUND_METHODS
+from experiments.video_segmentation.real_person import METHODS as PERSON_METHODS
 from experiments.video_segmentation.real_skin import METHODS, VALIDATION_PERSONS
 from lfd_jax import REAL_SKIN_PERSONS
 
@@ -71,6 +72,25 @@ Contact sheets: `background_<sequence>.png` (green hit, red false alarm, blue mi
 """
 
 
+def _person(cfg, m: dict) -> str:
+    names = m.get("person_sequences_scored") or []
+    if not names:
+        return "## Real video: the person\n\nNo SBI sequence was scored: skipped.\n"
+    rows = [[n, *(f"{_f(m[f'person_f1_{n}_{k}'])} ({_f(m[f'person_precision_{n}_{k}'])} / "
+                  f"{_f(m[f'person_recall_{n}_{k}'])})" for k in PERSON_METHODS)] for n in names]
+    return f"""## Real video: the person
+
+The whole front end (`VideoOptions.real_video()`: background model, colour models learnt before frame
+{cfg.real_person_start}, level sets) on the SBI indoor sequences, from frame {cfg.real_person_start} on, against
+their foreground masks (people and the objects they leave): the level sets' foreground is every region
+but the background (person, skin, object); beside it, the background model's own foreground of the same run.
+
+{markdown_table(["sequence", "F1 (P / R) front end", "F1 (P / R) background model"], rows)}
+
+Contact sheets: `person_<sequence>.png` (green hit, red false alarm, blue miss).
+"""
+
+
 def _reach(m: dict) -> str:
     if not m.get("reach_scored"):
         return "## Real video: the reach clip\n\nThe clip was not found: skipped.\n"
@@ -110,7 +130,7 @@ beside the fixed YCrCb rule, on the HGR hand photos of the other persons at half
 def report(cfg, m: dict, runtime_s: float) -> str:
     sections = [_rendered(cfg, m)] if cfg.rendered else []
     if cfg.real:
-        sections += [_background(cfg, m), _reach(m), _skin(m)]
+        sections += [_background(cfg, m), _person(cfg, m), _reach(m), _skin(m)]
     body = "\n".join(sections)
     return f"""# Video segmentation (LEVELSET TR §3-5, LfD 2009 §III-A)
 

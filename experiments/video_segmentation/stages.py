@@ -1,6 +1,6 @@
 """The stages of the video segmentation study and its `main`: skin models from some persons,
 every clip of the others through (a) skin alone, (b) level sets with the background model and (c)
-tracking; the real-video part (`real_background`, `real_reach`) and real skin photos (`real_skin`); figures; one writer."""
+tracking; the real-video part (`real_background`, `real_person`, `real_reach`) and real skin photos (`real_skin`); figures; one writer."""
 from __future__ import annotations
 
 import time
@@ -16,6 +16,7 @@ from experiments.video_segmentation import plots
 from experiments.video_segmentation.config import PRESETS, Config
 from experiments.video_segmentation.evaluate import METHODS, SKIN_ONLY, TRACKED, evaluate_clip
 from experiments.video_segmentation.real_background import background_stage
+from experiments.video_segmentation.real_person import person_stage
 from experiments.video_segmentation.real_reach import reach_stage
 from experiments.video_segmentation.real_skin import photo_skin_stage
 from experiments.video_segmentation.report import report
@@ -102,7 +103,7 @@ def main(argv=None) -> dict:
         rec, seg, _ = extra["first"]
         video.write_video(plots.overlay_frames(rec, seg), run.file("overlay.mp4"), fps=settings.fps)
     if cfg.real:
-        for stage in (background_stage, reach_stage, photo_skin_stage):
+        for stage in (background_stage, person_stage, reach_stage, photo_skin_stage):
             result = stage(cfg, plots)
             results.append(result)
             metrics.update(result.metrics)
