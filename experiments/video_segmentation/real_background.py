@@ -23,7 +23,8 @@ METHODS = ("ours",) + tuple(PEERS) + tuple(f"{m}_median3" for m in PEERS)
 CHUNK = 32  # frames per call of our model: memory stays bounded by the chunk, not the sequence
 
 
-def _chunks(frames, size: int):
+def chunks_of(frames, size: int):
+    """Lists of up to `size` consecutive items of the iterator `frames`, until it ends."""
     while chunk := list(itertools.islice(frames, size)):
         yield chunk
 
@@ -37,7 +38,7 @@ def score_sequence(root: str, name: str, structure: BackgroundStructure, options
     info = real_sequences.sequence_info(root, name)
     n_frames = len(info.numbers) if stop is None else min(stop, len(info.numbers))
     every = max(1, int(info.evaluated()[:n_frames].sum()) // max(keep, 1))
-    for chunk in _chunks(real_sequences.iter_sequence(root, name, step=step, stop=stop), CHUNK):
+    for chunk in chunks_of(real_sequences.iter_sequence(root, name, step=step, stop=stop), CHUNK):
         frames = np.stack([frame for _, frame, _ in chunk])
         state, ours = run_background(frames, structure=structure, options=options, initial_state=state,
                                      start_frame=seen)
@@ -58,26 +59,36 @@ def score_sequence(root: str, name: str, structure: BackgroundStructure, options
     return counts, kept
 
 
-def background_stage(cfg, plots) -> StageResult:
-    """F1, precision and recall per real sequence and method, and a contact sheet per sequence."""
-    structure, options = BackgroundStructure.real_video(), BackgroundOptions.real_video()
-    metrics, figures, rows = {}, {}, []
-    names = [n for n in cfg.real_sequences]
-    bar = progress(names, desc="real sequences")
+def score_sequences(names, score, prefix: str, plots, desc: str) -> tuple[dict, dict, list]:
+    """Every sequence of `names` through `score(name) -> (Counts per method, kept frames)`: (metrics
+    f"{prefix}f1_{name}_{method}" with precision and recall alike, contact sheets
+    f"{prefix or 'background_'}{name}.png", the names scored); a sequence whose files are missing is
+    skipped, saying so."""
+    metrics, figures, scored = {}, {}, []
+    bar = progress(names, desc=desc)
     for name in bar:
         bar.set_postfix_str(name)
         try:
-            counts, kept = score_sequence(cfg.real_data, name, structure, options, cfg.real_step, cfg.real_max_frames or None,
-                                          cfg.sheet_frames // 2)
+            counts, kept = score(name)
         except FileNotFoundError as missing:
             print(f"note: {missing}; {name} skipped")
             continue
         for m, c in counts.items():
-            metrics[f"f1_{name}_{m}"] = c.f1
-            metrics[f"precision_{name}_{m}"] = c.precision
-            metrics[f"recall_{name}_{m}"] = c.recall
-        rows.append(name)
-        figures[f"background_{name}.png"] = plots.background_sheet(name, kept)
+            metrics[f"{prefix}f1_{name}_{m}"] = c.f1
+            metrics[f"{prefix}precision_{name}_{m}"] = c.precision
+            metrics[f"{prefix}recall_{name}_{m}"] = c.recall
+        scored.append(name)
+        figures[f"{prefix or 'background_'}{name}.png"] = plots.background_sheet(name, kept)
+    return metrics, figures, scored
+
+
+def background_stage(cfg, plots) -> StageResult:
+    """F1, precision and recall per real sequence and method, and a contact sheet per sequence."""
+    structure, options = BackgroundStructure.real_video(), BackgroundOptions.real_video()
+    metrics, figures, rows = score_sequences(
+        cfg.real_sequences, lambda name: score_sequence(cfg.real_data, name, structure, options, cfg.real_step,
+                                                        cfg.real_max_frames or None, cfg.sheet_frames // 2),
+        "", plots, "real sequences")
     metrics["real_sequences_scored"] = rows
     if rows:
         for m in METHODS:

@@ -12,18 +12,14 @@ import itertools
 import jax
 import numpy as np
 
-from experiments.config import StageResult, progress
+from experiments.config import StageResult
 from experiments.data.video import real_sequences
+from experiments.video_segmentation.real_background import chunks_of, score_sequences
 from hog_jax.video import VideoOptions, fit_video_models, stream_recording
 from lfd_jax import fit_real_skin_model
 
 CHUNK = 32  # frames per call of the front end: memory holds a chunk, not the sequence
 METHODS = ("front_end", "background_model")
-
-
-def _chunks(items, size: int):
-    while chunk := list(itertools.islice(items, size)):
-        yield chunk
 
 
 def score_person(cfg, skin, name: str, keep: int) -> tuple[dict, list]:
@@ -47,7 +43,7 @@ def score_person(cfg, skin, name: str, keep: int) -> tuple[dict, list]:
             pending[:] = group
             yield np.stack([f for _, f, _ in group])
 
-    source = _chunks(itertools.chain(head, items), CHUNK)
+    source = chunks_of(itertools.chain(head, items), CHUNK)
     for seg in stream_recording(models, frames_of(source), start, options, total=len(info.numbers)):
         labels, motion = np.asarray(seg.labels), np.asarray(seg.foreground)
         for i, (number, frame, truth) in enumerate(pending):
@@ -67,18 +63,7 @@ def person_stage(cfg, plots) -> StageResult:
     if not names:
         return StageResult({"person_sequences_scored": []})
     skin = fit_real_skin_model(cfg.real_data, seed=cfg.seed)
-    metrics, figures, scored = {}, {}, []
-    for name in progress(names, desc="real people"):
-        try:
-            counts, kept = score_person(cfg, skin, name, cfg.sheet_frames // 2)
-        except FileNotFoundError as missing:
-            print(f"note: {missing}; {name} skipped")
-            continue
-        for m, c in counts.items():
-            metrics[f"person_f1_{name}_{m}"] = c.f1
-            metrics[f"person_precision_{name}_{m}"] = c.precision
-            metrics[f"person_recall_{name}_{m}"] = c.recall
-        scored.append(name)
-        figures[f"person_{name}.png"] = plots.background_sheet(name, kept)
+    metrics, figures, scored = score_sequences(names, lambda name: score_person(cfg, skin, name, cfg.sheet_frames // 2),
+                                               "person_", plots, "real people")
     metrics["person_sequences_scored"] = scored
     return StageResult(metrics, figures)
