@@ -8,6 +8,7 @@ own foreground of the same run (the motion mask the level sets start from)."""
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -16,7 +17,7 @@ from experiments.config import StageResult
 from experiments.data.video import real_sequences
 from experiments.video_segmentation.real_background import chunks_of, score_sequences
 from hog_jax.video import VideoOptions, fit_video_models, stream_recording
-from lfd_jax import fit_real_skin_model
+from lfd_jax import UCI_FILE, fit_real_skin_model
 
 CHUNK = 32  # frames per call of the front end: memory holds a chunk, not the sequence
 METHODS = ("front_end", "background_model")
@@ -60,7 +61,8 @@ def score_person(cfg, skin, name: str, keep: int) -> tuple[dict, list]:
 def person_stage(cfg, plots) -> StageResult:
     """The front end's person F1 per SBI sequence beside its background model's; a contact sheet each."""
     names = [n for n in cfg.real_sequences if n.startswith("sbi_")]
-    if not names:
+    if not names or not (Path(cfg.real_data) / UCI_FILE).is_file():
+        print(f"note: no SBI sequence chosen or no skin pixels ({UCI_FILE}) under {cfg.real_data}; the person is not scored")
         return StageResult({"person_sequences_scored": []})
     skin = fit_real_skin_model(cfg.real_data, seed=cfg.seed)
     metrics, figures, scored = score_sequences(names, lambda name: score_person(cfg, skin, name, cfg.sheet_frames // 2),

@@ -16,7 +16,7 @@ from experiments.config import StageResult, progress
 from experiments.data.hand_photos import HGR_DIR, hgr_names, hgr_split, load_photo, scaled
 from experiments.peers.ycrcb import ycrcb_rule
 from hog_jax import median3, skin_log_ratio
-from lfd_jax import REAL_SKIN_PERSONS, fit_real_skin_model
+from lfd_jax import REAL_SKIN_PERSONS, UCI_FILE, fit_real_skin_model
 
 VALIDATION_PERSONS = ("id04", "id05")  # where experiments.skin_real chose the model's settings
 SCALE = 0.5
@@ -33,8 +33,8 @@ def photo_masks(model, rgb: np.ndarray) -> dict[str, np.ndarray]:
 
 def photo_skin_stage(cfg, plots) -> StageResult:
     """Skin IoU per HGR person set and method; skipped, saying so, without the photos."""
-    if not (Path(cfg.real_data) / HGR_DIR / "images").is_dir():
-        print(f"note: {Path(cfg.real_data) / HGR_DIR} not found; the real skin photos are skipped")
+    if not ((Path(cfg.real_data) / HGR_DIR / "images").is_dir() and (Path(cfg.real_data) / UCI_FILE).is_file()):
+        print(f"note: {Path(cfg.real_data) / HGR_DIR} or {UCI_FILE} not found; the real skin photos are skipped")
         return StageResult({"skin_photos_scored": False})
     model = fit_real_skin_model(cfg.real_data, seed=cfg.seed)
     split = hgr_split(hgr_names(cfg.real_data), REAL_SKIN_PERSONS, VALIDATION_PERSONS)
