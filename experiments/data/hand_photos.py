@@ -191,6 +191,18 @@ def read_gtea(root: str | Path) -> list[GteaLabels]:
     return frames
 
 
+def read_gtea_grasps(root: str | Path) -> dict[str, list[tuple[str, int]]]:
+    """Each labelled gtea_grasps frame's hands' grasps, in the order of `read_gtea`'s hand boxes:
+    frame stem -> [(grasp_coarse: "power", "precision", ..., lfd_cutkosky: the project's class or -1)]."""
+    import csv
+    grasps: dict[str, list[tuple[str, int]]] = {}
+    with open(Path(root) / GTEA_DIR / "labels.csv", newline="") as f:
+        for row in csv.DictReader(f):
+            grasps.setdefault(Path(row["image"]).stem, []).append(
+                (row["grasp_coarse"], int(row["lfd_cutkosky"]) if row["lfd_cutkosky"] else -1))
+    return grasps
+
+
 def load_gtea(root: str | Path, scale: float = 1.0) -> list[GteaFrame]:
     """The frames of gtea_grasps with their hand boxes (labels.csv) and annotation masks, scaled."""
     frames = []

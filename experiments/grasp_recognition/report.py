@@ -28,7 +28,29 @@ def real_photos_text(m: dict) -> str:
     return ("## Hands in real photos\n\nHands found at box IoU >= 0.5 / false boxes per frame (the gtea annotation "
             "pixels inpainted; on HGR the true box is the skin mask's, hand and forearm):\n\n"
             + markdown_table(("set", *(name for _, name in REAL_METHODS)), rows)
-            + f"\n\n\"not found\" on {m['real_gtea_no_hand_crops']} gtea crops without a hand: {no_hand}.\n\n")
+            + f"\n\n\"not found\" on {m['real_gtea_no_hand_crops']} gtea crops without a hand: {no_hand}.\n\n"
+            + real_grasps_text(m))
+
+
+REAL_GRASP_METHODS = (("ours", "this recogniser (its skin crop)"), ("ycrcb_hog_1nn", "YCrCb + HOG 1-NN"),
+                      ("majority", "majority class"))
+
+
+def real_grasps_text(m: dict) -> str:
+    """The grasp class of the real gtea hands at their true boxes (`real_grasps`), each method's figures."""
+    rows = [(name, *(f"{m[f'real_grasp_{key}_{k}']:.3f}" for k in ("balanced_accuracy", "coarse_accuracy",
+                                                                      "exact_mean_recall", "found")),
+             " / ".join(str(m[f"real_grasp_{key}_{t}_as_{p}"]) for t in ("power", "precision")
+                        for p in ("power", "precision", "not found")))
+            for key, name in REAL_GRASP_METHODS]
+    return ("## Grasp class of real hands\n\nThe gtea_grasps hands whose grasp is power "
+            f"({m['real_grasp_hands_power']}) or precision ({m['real_grasp_hands_precision']}), each cut at its true box "
+            f"(skin inside it); the exact class over the {m['real_grasp_hands_exact_labelled']} hands labelled with one "
+            "of our classes. Coarse types by Cutkosky's taxonomy (Pinch and Precision Disc precision, the rest "
+            "power). Confusion: power as power / precision / not found, then precision as the same.\n\n"
+            + markdown_table(("method", "power / precision balanced accuracy", "coarse accuracy",
+                              "exact class, mean per-class recall", "skin found in the box", "confusion"), rows)
+            + "\n\nCrops: `real_grasp_crops_gtea.png`.\n\n")
 
 
 def report(cfg: Config, m: dict, nested: dict, mats: dict) -> str:

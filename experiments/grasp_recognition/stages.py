@@ -18,12 +18,14 @@ from experiments.data.grasp_tests import random_set, sequence_set, skin_training
 from experiments.grasp_recognition import plots
 from experiments.grasp_recognition.config import EULER_NAMES, PRESETS, Config
 from experiments.grasp_recognition.ladder import RUNGS, mask_crops, rung_sets
+from experiments.grasp_recognition.real_grasps import evaluate_real_grasps
 from experiments.grasp_recognition.real_photos import GTEA_DIR, HGR_DIR, evaluate_real_photos
 from experiments.grasp_recognition.pieces import accuracy, bar, held_out_views, robot_accuracy, sweeps
 from experiments.grasp_recognition.recogniser import recogniser_of, study_database
 from experiments.grasp_recognition.scoring import score_sets
 from experiments.grasp_recognition.report import report
 from lfd_common import enable_compilation_cache
+from lfd_jax import fit_real_skin_model
 from lfd_jax.grasp import Crops, Recogniser, net_labels, segment_frames
 from sim.grasping import GRASP_CLASSES
 
@@ -180,9 +182,11 @@ def sweep_stage(cfg: Config, s: Setup) -> StageResult:
     return StageResult(m, {"sweeps.png": plots.plot_sweeps(sw, cfg)})
 
 
-def real_photos_stage(cfg: Config) -> StageResult:
+def real_photos_stage(cfg: Config, s: Setup) -> StageResult:
     """Hands found on the real photos of `cfg.real_photos` (`real_photos.evaluate_real_photos`): metrics
-    `real_<set>_<method>_<figure>`; skipped, saying so, when the folder lacks the two sets."""
+    `real_<set>_<method>_<figure>`; the grasp class of the real hands at their true boxes by the study's
+    recogniser (`real_grasps.evaluate_real_grasps`): `real_grasp_<method>_<figure>`; skipped, saying
+    so, when the folder lacks the two sets."""
     if cfg.real_photos == "none":
         return StageResult({}, {})
     data = Path(cfg.real_photos)
@@ -191,7 +195,9 @@ def real_photos_stage(cfg: Config) -> StageResult:
         return StageResult({"real_photos_scored": False}, {})
     metrics, figures = evaluate_real_photos(data)
     metrics.pop("options")
-    return StageResult({"real_photos_scored": True, **flatten_metrics(metrics, "real_")}, figures)
+    grasps, grasp_figures = evaluate_real_grasps(s.rec, fit_real_skin_model(data, seed=cfg.seed), data, cfg.crop_size)
+    return StageResult({"real_photos_scored": True, **flatten_metrics(metrics, "real_"),
+                        **flatten_metrics(grasps, "real_grasp_")}, {**figures, **grasp_figures})
 
 
 def run_experiment(cfg: Config) -> tuple[StageResult, dict]:
@@ -201,7 +207,7 @@ def run_experiment(cfg: Config) -> tuple[StageResult, dict]:
     recognition, nested = recognition_stage(cfg, s)
     lsh, sweep = lsh_stage(cfg, s), sweep_stage(cfg, s)
     ladder = ladder_stage(cfg, s) if cfg.ladder else StageResult({}, {})
-    real = real_photos_stage(cfg)
+    real = real_photos_stage(cfg, s)
     mats = nested.pop("mats")
     m = {**s.metrics, **recognition.metrics, **lsh.metrics, **sweep.metrics, **ladder.metrics, **real.metrics}
     m["time_total_s"] = time.perf_counter() - t_start
