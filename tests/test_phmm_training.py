@@ -14,6 +14,7 @@ from lfd_common import pad_sequences, save_arrays
 from phmm_jax import em_step
 from phmm_jax import batch_phmm_log_likelihood
 from phmm_jax import hermite_spline, multilinear_map
+from phmm_jax._src import parametric
 
 CORNERS = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [0.0, 3.0]])
 
@@ -200,6 +201,36 @@ def test_recognize_in_chunks_equals_one_chunk(walk_phmm):
     np.testing.assert_allclose(chunked.loglik, whole.loglik, rtol=1e-5, atol=1e-3)  # nats
     np.testing.assert_allclose(chunked.phi, whole.phi, atol=1e-3)
 
+
+def test_coarse_to_fine_start_is_the_best_lattice_point(walk_phmm):
+    """d = 2, a 25 x 25 start lattice: the coarse-to-fine start (every second point, the 2 best of
+    each sequence refined) is the point a brute-force scan of all 625 finds, also where that point
+    is off the coarse lattice (which a coarse scan alone would miss)."""
+    walk, _ = walk_phmm
+    # A second parameter stretches the movement along x (exactly bilinear in φ).
+    stretch = np.array([1.0, 1.25, 1.5])
+    means = np.asarray(walk.local.means)[:, None] * np.stack([stretch, np.ones(3)], -1)[None, :, None]
+    local = walk.local.replace(means=means.reshape(9, *means.shape[2:]),
+                               **{f: np.repeat(np.asarray(getattr(walk.local, f)), 3, axis=0)
+                                  for f in ("covariances", "log_cont", "log_exit")})
+    phmm = P.PHMM(local, (3, 3))
+    rng = np.random.default_rng(11)
+    phis = rng.uniform(0, 1, (8, 2))
+    X, lengths = pad_sequences([phase_walk(rng, a, 1)[0][0] * np.array([1.0 + 0.5 * b, 1.0]) for a, b in phis],
+                               None, dim=2)
+    X, lengths = jnp.asarray(X, jnp.float32), jnp.asarray(lengths)
+    axis = np.linspace(0.0, 1.0, 25)
+    lattice = np.stack(np.meshgrid(axis, axis, indexing="ij"), -1).reshape(-1, 2)
+    M, B = len(lattice), len(X)
+    scan = np.asarray(batch_phmm_log_likelihood(phmm, jnp.tile(X, (M, 1, 1)), jnp.tile(lengths, M),
+                                                jnp.asarray(np.repeat(lattice, B, 0), jnp.float32))).reshape(M, B)
+    best = np.argmax(scan, axis=0)
+    # Some sequences' best points are off the coarse lattice (odd indices).
+    assert np.any(np.stack(np.unravel_index(best, (25, 25)), -1) % 2 == 1)
+    start = parametric._start_points(phmm, X, lengths, 25, 2, 2)
+    np.testing.assert_allclose(np.asarray(start), lattice[best], atol=1e-6)
+    with pytest.raises(ValueError, match="coarse_top"):
+        P.recognize(phmm, X, lengths, coarse_top=0)
 
 def test_solve_spd_matches_numpy():
     from lfd_common import solve_spd
