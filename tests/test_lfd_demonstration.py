@@ -7,16 +7,18 @@ import numpy as np
 import pytest
 
 from experiments.peers.object_peer import window
+from experiments.lfd_demonstration.front import hand_tip
 from experiments.lfd_demonstration.evaluate import (hand_width, held_object_motion, iou_by_bin, match_events,
                                                     pooled_iou, truth_windows)
 from tests.xla_level import run_experiment
 
 REQUIRED = ("object_mask_iou", "object_mask_iou_peer", "pickup_error_frames", "putdown_error_frames", "events_missed",
             "events_spurious", "runtime_s")
-# Pooled object-mask IoU floors in the hand's 21 x 21 window on this recording. Measured: ours 0.082, the
-# peer 0.109 (the held object is §III-B's hard case). Broken masks against the same truth windows: empty 0,
-# all-one 0.044, the true mask moved 8 px right and down 0.035 (moved 2 px: 0.41, better than either
-# method). The floors sit between: they fail an empty, all-one or misplaced mask, not a small regression.
+# Pooled object-mask IoU floors in the hand's 21 x 21 window on this recording. Measured (windows on
+# `hand_tip`): ours 0.087, the peer 0.152 (the held object is §III-B's hard case). Broken masks against the
+# truth windows (measured on the earlier, centroid-centred windows): empty 0, all-one 0.044, the true mask
+# moved 8 px right and down 0.035 (moved 2 px: 0.41, better than either method). The floors sit between: they
+# fail an empty, all-one or misplaced mask, not a small regression.
 IOU_FLOORS = {"object_mask_iou": 0.06, "object_mask_iou_peer": 0.08}
 
 
@@ -82,6 +84,21 @@ def test_hand_width_is_the_minor_axis_of_the_observed_blobs():
     assert hand_width(cov, np.array([True, False])) == pytest.approx(8.0)
     with pytest.raises(ValueError, match="tracks"):
         hand_width(cov, np.zeros(2, bool))
+
+
+def test_hand_tip_is_the_forearms_end_nearer_the_face():
+    """A forearm (6 x 40 px) with a hand (a disk of radius 5 centred at column 53) at its inner end:
+    the tip lies in the hand, 14 px from the whole blob's centroid; with the face on the other side the
+    elbow's end is taken; a compact blob and an untracked frame keep the tracked position."""
+    rows, cols = np.mgrid[:60, :80]
+    arm = ((rows >= 28) & (rows <= 33) & (cols >= 10) & (cols <= 49)) | (np.hypot(rows - 30.5, cols - 53) <= 5)
+    skin = np.stack([arm, arm, np.hypot(rows - 30.5, cols - 53) <= 5, arm])
+    centroid = np.stack([np.argwhere(s).mean(axis=0) for s in skin])
+    face = np.array([[5.0, 70.0]] * 3 + [[5.0, 0.0]])
+    tip = hand_tip(skin, centroid, face, np.array([True, False, True, True]), reach=40)
+    assert np.hypot(*(tip[0] - [30.5, 53.0])) < 2.0 and np.hypot(*(centroid[0] - [30.5, 53.0])) > 17.0
+    assert tip[3, 1] < 20.0  # the other end: the one nearer the face's column
+    np.testing.assert_array_equal(tip[1:3], centroid[1:3])
 
 
 @pytest.fixture(scope="module")

@@ -80,7 +80,8 @@ Recordings: {m['n_recordings']} long unsegmented scripts of `experiments.data.vi
 ({settings.width} x {settings.height} at {settings.fps:g} fps, {m['events_true']} true pick-up / put-down periods),
 each through the video front end (skin models from the clips of the last {cfg.n_skin_persons}
 person(s), who have no script): level sets, tracking, the tracked right hand in both views. The object in the
-hand: phase differences in a {2 * round(cfg.half_window * cfg.scale(settings)) + 1}-pixel window (ours), and the
+hand: phase differences in a {2 * round(cfg.half_window * cfg.scale(settings)) + 1}-pixel window centred on the
+hand's end of its skin blob, not the centroid of hand and bare forearm (`front.hand_tip`) (ours), and the
 OpenCV peer on the same windows and hand positions. A frame decides "object in hand" only where the hand moved at
 least {cfg.min_hand_motion:g} px (at 320 x 240) and is tracked in both views, else it keeps the last decision; then
 the closing and opening over time and periods under {cfg.min_duration_s:g} s removed. A found period matches the true
