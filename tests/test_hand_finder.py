@@ -78,6 +78,7 @@ def test_the_grasp_study_skips_the_real_photos_without_the_data(tmp_path, capsys
     from experiments.grasp_recognition.config import Config
     from experiments.grasp_recognition.stages import real_photos_stage
 
-    assert real_photos_stage(Config()).metrics == {}  # off by default
-    assert real_photos_stage(Config(real_photos=str(tmp_path))).metrics == {"real_photos_scored": False}
+    # a stage that skips needs no recogniser (the study's setup)
+    assert real_photos_stage(Config(), None).metrics == {}  # off by default
+    assert real_photos_stage(Config(real_photos=str(tmp_path)), None).metrics == {"real_photos_scored": False}
     assert "the real-photo stage is skipped" in capsys.readouterr().out

@@ -4,7 +4,7 @@ from OpenCV's coefficients, not the module's matrix); the video front end's opti
 import jax
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import hog_jax
@@ -54,6 +54,7 @@ def test_gray_world_gains_rejects_what_has_no_light(frames, match):
         hog_jax.gray_world_gains(frames)
 
 
+@settings(max_examples=25, deadline=None)
 @given(st.lists(st.floats(0.5, 2.0), min_size=3, max_size=3))
 def test_balanced_model_is_the_model_at_the_balanced_colour(model, gains):
     gains = np.asarray(gains)
