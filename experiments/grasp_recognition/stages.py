@@ -182,11 +182,11 @@ def sweep_stage(cfg: Config, s: Setup) -> StageResult:
     return StageResult(m, {"sweeps.png": plots.plot_sweeps(sw, cfg)})
 
 
-def real_photos_stage(cfg: Config, s: Setup) -> StageResult:
+def real_photos_stage(cfg: Config, s: Setup | None) -> StageResult:
     """Hands found on the real photos of `cfg.real_photos` (`real_photos.evaluate_real_photos`): metrics
     `real_<set>_<method>_<figure>`; the grasp class of the real hands at their true boxes by the study's
-    recogniser (`real_grasps.evaluate_real_grasps`): `real_grasp_<method>_<figure>`; skipped, saying
-    so, when the folder lacks the two sets."""
+    recogniser (`s.rec`, `real_grasps.evaluate_real_grasps`): `real_grasp_<method>_<figure>`; skipped,
+    saying so, when the folder lacks the two sets (where `s` is not used)."""
     if cfg.real_photos == "none":
         return StageResult({}, {})
     data = Path(cfg.real_photos)
