@@ -20,8 +20,9 @@ Per demonstration (`stages.run_demo`, `pipeline`, the steps of `lfd_jax.imitatio
    (`lfd_jax.imitation.scene_place`), or, where the video does not show it, plus the hand's
    displacement between them;
 4. the grasp class from the hand image at the grasp moment (`grasp_stage`; GRASP §III, eq. 3: HOG, kNN
-   over hand crops of demonstrations of their own seed, or over the grasp study's rendered database,
-   which also gives the hand's orientation, eq. 4);
+   over hand crops of demonstrations of their own seed, or a convnet trained on them, or kNN over the
+   grasp study's rendered database, which also gives the hand's orientation, eq. 4); the hand cut from
+   the left view or from a foveal camera turned to the tracked hand (`fovea`);
 5. the robot (`sim.task_controller.run_task`, MAP §III grasp strategy with the mapped preshape) does
    the task, where that controller is in the tree.
 Settings (tracker offset, PHMM observation noise, movement threshold) are chosen on validation

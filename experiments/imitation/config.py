@@ -47,6 +47,14 @@ class Config:
     grasp_train_demos: int = 48
     grasp_frames_s: tuple[float, ...] = (-0.24, -0.16, -0.08, 0.0, 0.08)   # crops around each pick-up
     grasp_window_frac: float = 0.1       # validation: skin within this fraction of the width of the hand (0: all)
+    # the hand cropped from a foveal camera (`fovea`) of fovea_px x fovea_px pixels over fovea_fov_deg, turned to
+    # the tracked hand at the grasp moment (0: from the left view; the window above then does not apply)
+    fovea_px: int = 0
+    fovea_fov_deg: float = 12.0
+    # the class from the "demonstrations" crops: eq. 3's kNN ("knn") or a convnet trained on them ("cnn",
+    # `lfd_jax.grasp.fit_convnet`, grasp_cnn_epochs passes)
+    grasp_classifier: str = "knn"
+    grasp_cnn_epochs: int = 40
     # robot (sim.task_controller)
     robot: bool = True
     robot_hand: str = "barrett"
@@ -62,7 +70,8 @@ class Config:
             raise ValueError(f"video_preset: expected one of {sorted(video.PRESETS)}, got {self.video_preset!r}")
         for name, low in (("n_persons", 2), ("n_skin_persons", 1), ("n_demos", 1), ("n_videos", 1),
                           ("n_validation", 1), ("pad_frames", 1), ("n_states", 2), ("train_repetitions", 1),
-                          ("phmm_iter", 1), ("min_blob_px_160", 1), ("grasp_db_pixels", 0), ("grasp_train_demos", 1)):
+                          ("phmm_iter", 1), ("min_blob_px_160", 1), ("grasp_db_pixels", 0), ("grasp_train_demos", 1),
+                          ("fovea_px", 0), ("grasp_cnn_epochs", 1)):
             check_int(getattr(self, name), name, min_value=low)
         if self.n_skin_persons >= self.n_persons:
             raise ValueError(f"n_skin_persons: must leave demonstrators among the {self.n_persons} persons")
@@ -80,6 +89,13 @@ class Config:
         if self.grasp_database not in ("study", "demonstrations"):
             raise ValueError(f"grasp_database: expected 'study' or 'demonstrations', got {self.grasp_database!r}")
         check_real(self.grasp_window_frac, "grasp_window_frac", min_value=0.0, max_value=1.0)
+        if self.fovea_px and not 8 <= self.fovea_px <= 1024:
+            raise ValueError(f"fovea_px: expected 0 or 8 to 1024, got {self.fovea_px}")
+        check_real(self.fovea_fov_deg, "fovea_fov_deg", min_value=0.0, max_value=89.0, exclusive_min=True)
+        if self.grasp_classifier not in ("knn", "cnn"):
+            raise ValueError(f"grasp_classifier: expected 'knn' or 'cnn', got {self.grasp_classifier!r}")
+        if self.grasp_classifier == "cnn" and self.grasp_database != "demonstrations":
+            raise ValueError("grasp_classifier: 'cnn' is trained on the 'demonstrations' crops (grasp_database)")
         if not isinstance(self.grasp_frames_s, tuple) or not self.grasp_frames_s:
             raise ValueError(f"grasp_frames_s: expected a non-empty tuple, got {self.grasp_frames_s!r}")
         for v in self.grasp_frames_s:
@@ -121,6 +137,7 @@ VALIDATION_SEED = 1000
 
 PRESETS = {
     "quick": {"video_preset": "quick", "n_demos": 4, "n_videos": 1, "n_validation": 2, "train_repetitions": 3,
-              "phmm_iter": 10, "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,), "grasp_database": "study"},
+              "phmm_iter": 10, "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,),
+              "grasp_database": "demonstrations", "fovea_px": 128},
     "paper": {},
 }

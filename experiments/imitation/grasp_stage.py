@@ -5,13 +5,20 @@ and its grasp class by eq. 3's kNN over HOG (`lfd_jax.grasp`), from one of two d
   `cfg.grasp_preset`, `experiments.data.grasp_database.DATABASE_PRESETS`, optionally degraded to
   `cfg.grasp_db_pixels`), GRASP's recogniser on it (`RecogniserOptions` defaults); orientation by eq. 4.
 - "demonstrations": hand crops cut the same way from transfer demonstrations of their own seed (never
-  the evaluated or the validation ones), around each one's pick-up frame, labelled with its grasp. No
-  orientation (the crops carry none): the quaternion is NaN.
+  the evaluated or the validation ones), around each one's pick-up frame, labelled with its grasp; the
+  class by eq. 3's kNN or (`cfg.grasp_classifier` "cnn") by a convnet trained on them. No orientation
+  (the crops carry none): the quaternion is NaN.
 
 Why both: at 320 x 240 the demonstrating hand is about 16 pixels across, its crop holds part of the
 wrist and the object, and the study's views (a bare hand, 64 pixels, every direction of the upper half
-sphere) recognise it below chance on validation crops (`experiments/validation/imitation_grasp.py`)."""
+sphere) recognise it below chance on validation crops (`experiments/validation/imitation_grasp.py`).
+
+Where the crops come from (`hand_views`): the left view, cut at the tracked hand, or with
+`cfg.fovea_px` a foveal camera turned to the tracked hand (`fovea`), rendered at the grasp moment: the
+hand then spans tens of pixels whatever the wide cameras' resolution."""
 from __future__ import annotations
+
+import contextlib
 
 import jax
 import numpy as np
@@ -21,10 +28,12 @@ from experiments.config import progress
 from experiments.data import video
 from experiments.data.grasp_database import DATABASE_PRESETS, DatabaseOptions, database
 from experiments.imitation.config import Config
-from experiments.imitation.demonstrations import draw_demos, render_demo
-from lfd_jax.grasp import (Recogniser, RecogniserOptions, build_recogniser, features, hog_config, hog_features,
-                           recognise)
+from experiments.imitation.demonstrations import Demo, draw_demos, render_demo
+from experiments.imitation.fovea import Fovea
+from lfd_jax.grasp import (Crops, Recogniser, RecogniserOptions, build_recogniser, cached_convnet, features,
+                           fit_convnet, hog_config, hog_features, net_labels, recognise)
 from sim.grasping import GRASP_CLASSES
+from sim.scenes import PART_NAMES
 
 _GRASP_SEED = 3000  # the demonstrations of the "demonstrations" database (PHMMs: 2000, validation: 1000)
 
@@ -53,6 +62,21 @@ def crop_window(cfg: Config, settings: video.VideoSettings) -> int:
     return round(cfg.grasp_window_frac * settings.width)
 
 
+def hand_views(cfg: Config, settings: video.VideoSettings, demo: Demo, rec: video.Recording, frames,
+               hand_rc) -> tuple[np.ndarray, np.ndarray, int]:
+    """What the hand is cropped from at each of `frames` (B,), given the tracked hand (row, col) (B, 2)
+    in the left view: (images (B, H, W, 3), the hand (row, col) in them (B, 2), the crop window in their
+    pixels (`hand_crop`)). The left view with `crop_window`, or with `cfg.fovea_px` the foveal camera
+    (`fovea.Fovea`) aimed at the tracked hand, the hand at its centre, no window (the fovea's narrow
+    field keeps the skin far from the hand out)."""
+    frames, rc = np.asarray(frames, int).reshape(-1), np.asarray(hand_rc, np.float32).reshape(-1, 2)
+    if not cfg.fovea_px:
+        return rec.left[frames], rc, crop_window(cfg, settings)
+    with Fovea(settings, cfg.fovea_px, cfg.fovea_fov_deg) as fovea:
+        images = np.stack([fovea.view(demo, int(f), rec.P_left, x)[0] for f, x in zip(frames, rc)])
+    return images, np.full((len(frames), 2), (cfg.fovea_px - 1) / 2, np.float32), 0
+
+
 def database_options(cfg: Config) -> DatabaseOptions:
     """The view database of the grasp study's preset `cfg.grasp_preset`, with cfg's seed and
     `grasp_db_pixels`."""
@@ -61,28 +85,41 @@ def database_options(cfg: Config) -> DatabaseOptions:
     return DatabaseOptions(**{**DATABASE_PRESETS[cfg.grasp_preset], "seed": cfg.seed, "db_pixels": cfg.grasp_db_pixels})
 
 
+def _pickup_views(cfg: Config, settings: video.VideoSettings, demo: Demo, shifts: np.ndarray, fovea: Fovea | None):
+    """(views, hand (row, col) in them, window) of `hand_views` at the demonstration's pick-up frame
+    shifted by each of `shifts` where the hand is visible, aimed at the renderer's hand: in the left view
+    its centroid; the fovea at its centre of volume, without the left view rendered."""
+    if fovea is None:
+        rec = render_demo(settings, demo)
+        frames = np.unique(np.clip(rec.pickup_frames[0] + shifts, 0, len(rec.left) - 1))
+        frames = frames[rec.ellipse_found[frames, 0, 0]]
+        return hand_views(cfg, settings, demo, rec, frames, rec.ellipse_centre[frames, 0, 0, ::-1])
+    track = fovea.movement(demo)
+    frames = np.unique(np.clip(track.pickups[0] + shifts, 0, len(track.light) - 1))
+    camera = fovea.actors(demo).rig.projection_matrices()[0]
+    views = [fovea.view(demo, int(f), camera, fovea.hand_rc(demo, int(f), camera)) for f in frames]
+    images = np.stack([v[0] for v in views])[[(v[1] == PART_NAMES.index("hand")).any() for v in views]]
+    return images, np.full((len(images), 2), (cfg.fovea_px - 1) / 2, np.float32), 0
+
+
 def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin, n: int, seed: int):
     """Hand crops of n transfer demonstrations drawn with `seed`, at their pick-up frame shifted by each
-    of `cfg.grasp_frames_s`, cut at the renderer's right-hand centroid (the tracker taken out): images
-    (N, S, S), masks, found (N,), grasp classes (N,), demonstration index (N,)."""
+    of `cfg.grasp_frames_s`, from the views of `hand_views` aimed at the renderer's hand (the tracker
+    taken out): images (N, S, S), masks, found (N,), grasp classes (N,), demonstration index (N,)."""
     crop_size = database_options(cfg).crop_size
-    window = crop_window(cfg, settings)
     demos = draw_demos(n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
-    shifts = sorted({round(s * settings.fps) for s in cfg.grasp_frames_s})
-    frames, rc, grasps, index = [], [], [], []
-    for i, demo in enumerate(demos):
-        rec = render_demo(settings, demo)
-        for shift in shifts:
-            f = int(np.clip(rec.pickup_frames[0] + shift, 0, len(rec.left) - 1))
-            if rec.ellipse_found[f, 0, 0]:
-                frames.append(rec.left[f])
-                rc.append(rec.ellipse_centre[f, 0, 0, ::-1])
-                grasps.append(demo.grasp)
-                index.append(i)
-    if not frames:
+    shifts = np.array(sorted({round(s * settings.fps) for s in cfg.grasp_frames_s}))
+    crops, grasps, index = [], [], []
+    with Fovea(settings, cfg.fovea_px, cfg.fovea_fov_deg) if cfg.fovea_px else contextlib.nullcontext() as fovea:
+        for i, demo in enumerate(demos):
+            views, rc, window = _pickup_views(cfg, settings, demo, shifts, fovea)
+            if len(views):
+                crops.append(hand_crop(views, rc, chroma_skin, crop_size, window))
+                grasps += [demo.grasp] * len(views)
+                index += [i] * len(views)
+    if not crops:
         raise ValueError(f"n: no hand visible at the pick-up of the {n} demonstrations")
-    return (*hand_crop(np.stack(frames), np.stack(rc), chroma_skin, crop_size, window), np.array(grasps),
-            np.array(index))
+    return (*(np.concatenate(parts) for parts in zip(*crops)), np.array(grasps), np.array(index))
 
 
 def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
@@ -97,22 +134,30 @@ def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
     x = hog_features(images, masks, found, hcfg)[found]
     labels = np.array([GRASP_CLASSES.index(g) for g in grasps[found]])
     model = hog_jax.fit(x, labels, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
-    return dcfg, Recogniser(hcfg, None, model, {}, None, options.k, None)
+    net = None
+    if cfg.grasp_classifier == "cnn":
+        data = (images[found], masks[found], labels)
+        net = cached_convnet(dict(crops=data, seed=cfg.seed, epochs=cfg.grasp_cnn_epochs),
+                             lambda: fit_convnet(*data, len(GRASP_CLASSES), cfg.seed, epochs=cfg.grasp_cnn_epochs,
+                                                 progress=lambda it, total: progress(it, desc="grasp convnet",
+                                                                                     total=total)))
+    return dcfg, Recogniser(hcfg, None, model, {}, None, options.k, None, net)
 
 
-def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording, hand_rc: np.ndarray,
+def grasp_function(cfg: Config, models_grasp, chroma_skin, demo: Demo, rec: video.Recording, hand_rc: np.ndarray,
                    settings: video.VideoSettings):
-    """frame -> (grasp class, quaternion) of the hand crop at that frame, cut at `hand_rc` (T, 2) (row,
-    col) of the tracked hand (-1 and NaN where no hand is found; NaN quaternion from the
-    "demonstrations" database)."""
+    """frame -> (grasp class, quaternion) of the hand crop at that frame of the demonstration's
+    recording, from the view of `hand_views` aimed at `hand_rc` (T, 2) (row, col) of the tracked hand
+    (-1 and NaN where no hand is found; NaN quaternion from the "demonstrations" database)."""
     dcfg, recogniser = models_grasp
-    window = crop_window(cfg, settings)
 
     def at(frame: int):
-        images, masks, found = hand_crop(rec.left[frame][None], hand_rc[frame], chroma_skin, dcfg.crop_size, window)
+        views, rc, window = hand_views(cfg, settings, demo, rec, [frame], hand_rc[frame])
+        images, masks, found = hand_crop(views, rc, chroma_skin, dcfg.crop_size, window)
         if not found.any():
             return -1, np.full(4, np.nan)
-        out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
+        net = net_labels(recogniser, Crops(images, masks, found, images))  # None without a network
+        out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True, labels=net)
         label = int(out.labels[0])
         quat = out.quat[0] if cfg.grasp_database == "study" else np.full(4, np.nan)
         return (GRASP_CLASSES[label] if label >= 0 else -1), quat
@@ -120,4 +165,5 @@ def grasp_function(cfg: Config, models_grasp, chroma_skin, rec: video.Recording,
     return at
 
 
-__all__ = ["crop_window", "database_options", "demonstration_crops", "grasp_function", "grasp_recogniser", "hand_crop"]
+__all__ = ["crop_window", "database_options", "demonstration_crops", "grasp_function", "grasp_recogniser", "hand_crop",
+           "hand_views"]

@@ -82,8 +82,12 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
               "robot (or, where no robot ran, a top view of what was recognised).", "",
               markdown_table(["video", "#", "kind", "task"], videos)]
     lines += ["", "## Notes", "",
-              "- Grasp recognition runs on the hand crop of the left view at the recognised grasp moment; at the quick "
-              "preset's 160 x 120 the hand is about 10 pixels wide, so the grasp class is close to chance there.",
+              ("- Grasp recognition runs on the hand crop of a foveal camera turned to the tracked hand at the "
+               f"recognised grasp moment ({cfg.fovea_px} x {cfg.fovea_px} px over {cfg.fovea_fov_deg:g} degrees; "
+               "`experiments.imitation.fovea`)." if cfg.fovea_px else
+               "- Grasp recognition runs on the hand crop of the left view at the recognised grasp moment; at the "
+               "quick preset's 160 x 120 the hand is about 10 pixels wide, so the grasp class is close to chance "
+               "there."),
               "- The recognised hand orientation is relative to the camera; the robot is given the grasp's canonical "
               "orientation (`hand_rot=None`), not the recognised one.",
               "- The robot's approach follows the reach PHMM's synthesised movement to the recognised object "

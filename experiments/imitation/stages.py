@@ -164,7 +164,7 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     tracked = pl.track(cfg, settings, demo, rec, models.skin)
     times["tracking_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    grasp = grasp_function(cfg, models.grasp, models.skin, rec, tracked.hand_rc, settings)
+    grasp = grasp_function(cfg, models.grasp, models.skin, demo, rec, tracked.hand_rc, settings)
     r = im.recognise_demo(models.online, tracked, models.offset, cfg.median_frames, demo.objects_xy, cfg.handover_xy,
                           grasp, merge_gap=cfg.merge_gap, reach_phmm=models.reach,
                           scene=scene_reader(cfg, rec, tracked), area=pl.AREA)
