@@ -18,9 +18,9 @@ face tracked (`video_demo_sheet.png`; experiments.video_segmentation).
 Stage "lfd": one short long recording (two OACs): the object in the hand from phase differences,
 the pick-up / put-down events and the CHCRF label and Z(x) of each period (`lfd_demo_fig8.png`;
 experiments.lfd_demonstration).
-Stage "imitation": one rendered demonstration (point or pick-and-place) through the whole loop, video
-to robot, with the side-by-side video `imitation_demo.mp4` (the person | the robot;
-experiments.imitation).
+Stage "imitation": the first three rendered demonstrations of the seed (point or pick-and-place) through
+the whole loop, video to robot, each with its side-by-side video `imitation_demo_<k>.mp4` (the person |
+the robot; experiments.imitation).
 """
 from __future__ import annotations
 
