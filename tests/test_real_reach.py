@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments.real_reach import Config, main
+from experiments.real_reach import METHODS, Config, main
 from experiments.real_reach import events as evt
 from experiments.real_reach.data import event_features, load_movements, reach_features
-from experiments.real_reach.methods import dtw_distances
+from experiments.real_reach.methods import dtw_distances, nearest_class_mean, standardise_per_person
 
 JOINTS = ("Neck", "RShoulder", "RElbow", "RWrist", "MidHip", "RPalmBase", "RThumb4FingerTip", "RIndex4FingerTip",
           "RMiddle1Knuckles", "RMiddle4FingerTip")
@@ -71,7 +71,7 @@ def test_quick_preset_on_a_synthetic_reach_npz(tmp_path):
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["skipped"] is False and written["person_n_test_reaches"] == 27
     for norm in ("person", "pixels", "calibrated"):
-        for method in ("phmm", "aperture", "regression", "hmmlearn", "dtw"):
+        for method in METHODS:
             assert 0.0 <= metrics[f"{norm}_accuracy_{method}"] <= 1.0
             assert 0.0 <= metrics[f"{norm}_accuracy_50pct_{method}"] <= 1.0
         assert (out / f"accuracy_vs_reach_{norm}.png").is_file() and (out / f"confusion_{norm}.png").is_file()
@@ -111,6 +111,22 @@ def test_dtw_distances_match_the_recursion():
     query = rng.normal(size=(5, 3))
     np.testing.assert_allclose(dtw_distances(query, refs), [_dtw_reference(query, r) for r in refs], rtol=1e-12)
     assert dtw_distances(refs[0], refs[:1])[0] == 0.0
+
+
+def test_class_means_and_per_person_scores_match_references():
+    from scipy.stats import zscore
+    from sklearn.neighbors import NearestCentroid
+
+    rng = np.random.default_rng(2)
+    x, y = rng.normal(size=(40, 2)) + np.repeat(np.arange(3), [14, 13, 13])[:, None], np.repeat(np.arange(3), [14, 13, 13])
+    test = rng.normal(size=(25, 2)) * 2
+    np.testing.assert_array_equal(nearest_class_mean(x, y, test), NearestCentroid().fit(x, y).predict(test))
+    # a class absent from the training rows is never chosen
+    assert set(nearest_class_mean(x[y != 1], y[y != 1], test).tolist()) <= {0, 2}
+    persons = rng.integers(1, 4, size=40)
+    z = standardise_per_person(x, persons)
+    for p in (1, 2, 3):
+        np.testing.assert_allclose(z[persons == p], zscore(x[persons == p], axis=0), rtol=1e-12)
 
 
 def test_event_detectors_are_online_and_find_known_boundaries(tmp_path):

@@ -4,8 +4,12 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-METHODS = ("phmm", "aperture", "regression", "hmmlearn", "dtw")
-METHOD_NAMES = {"phmm": "PHMM, d = 1 (size in cm)", "aperture": "nearest class mean, max grip aperture",
+METHODS = ("phmm", "phmm_cv", "phmm_person", "aperture", "aperture_person", "regression", "hmmlearn", "dtw")
+METHOD_NAMES = {"phmm": "PHMM, d = 1 (size in cm)",
+                "phmm_cv": "PHMM φ, class means of cross-validated φ",
+                "phmm_person": "PHMM φ z-scored per person, class means of cross-validated φ",
+                "aperture": "nearest class mean, max grip aperture",
+                "aperture_person": "nearest class mean, max grip aperture z-scored per person",
                 "regression": "linear regression, last frame", "hmmlearn": "hmmlearn GaussianHMM per size",
                 "dtw": "1-NN DTW"}
 EVENT_METHODS = ("speed", "hmm")

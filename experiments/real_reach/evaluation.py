@@ -90,16 +90,21 @@ def evaluate_sizes(movements: list[Movement], normalisation: str, cfg) -> SizeRe
         phmm = mt.fit_phmm(Z_train, y_train, chosen["phmm"], cfg)
         profile, lengths = mt.prefix_profile(phmm, Z_test, cfg)
         t0 = time.perf_counter()
-        phi = (mt.recognise_phmm(phmm, Z_test, cfg) if cfg.search
-               else lattice[np.argmax(mt.profile_at(profile, lengths, 1.0), axis=0)])
+        phis = mt.phi_by_fraction(phmm, Z_test, profile, lengths, cfg)
         rec_s += time.perf_counter() - t0
         n_rec += len(Z_test)
+        phi = phis[1.0]
+        cv_phis = mt.cross_validated_phi(s_train, y_train, persons[train], chosen["phmm"], cfg)
         hmms = mt.fit_hmmlearn(Z_train, y_train, chosen["hmmlearn"], cfg)
         for f in cfg.fractions:
             P_train, P_test = mt.prefixes(Z_train, f), mt.prefixes(Z_test, f)
-            best = lattice[np.argmax(mt.profile_at(profile, lengths, f), axis=0)]
-            out["phmm"][f].append(mt.snap(mt.phi_to_cm(phi, grid)) if f == 1.0 else mt.snap(mt.phi_to_cm(best, grid)))
+            out["phmm"][f].append(mt.snap(mt.phi_to_cm(phis[f], grid)))
+            out["phmm_cv"][f].append(mt.nearest_class_mean(cv_phis[f][:, None], y_train, phis[f][:, None]))
+            out["phmm_person"][f].append(mt.nearest_class_mean(
+                mt.standardise_per_person(cv_phis[f][:, None], persons[train]), y_train,
+                mt.standardise_per_person(phis[f][:, None], persons[~train])))
             out["aperture"][f].append(mt.predict_aperture(P_train, y_train, P_test))
+            out["aperture_person"][f].append(mt.predict_aperture_person(P_train, y_train, persons[train], P_test))
             out["regression"][f].append(mt.predict_regression(P_train, y_train, P_test))
             out["hmmlearn"][f].append(mt.predict_hmmlearn(hmms, P_test))
             out["dtw"][f].append(mt.predict_dtw(P_train, y_train, P_test))

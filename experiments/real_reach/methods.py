@@ -9,7 +9,14 @@ their frames' mean and standard deviation) and returns a size class (index into 
   piecewise linear in φ); the recognised φ (PHMM eq. 3, `phmm_jax.recognize`) is turned into cm and
   snapped to the nearest size. On a prefix, the φ of a lattice over [−ε, 1 + ε] with the highest
   forward probability of the frames so far (paths still running).
+* `phmm_cv`: the same φ, classified by the nearest class mean of the training persons'
+  cross-validated φ (each training person's φ from a PHMM fitted on the other training persons):
+  a discriminative calibration of φ instead of snapping it to the nearest corner.
+* `phmm_person`: as `phmm_cv`, but every φ z-scored over its person's reaches (the held-out person's
+  unlabelled reaches, each training person's cross-validated φ): a per-person offset and scale of φ.
 * `aperture`: nearest class mean of the largest grip apertures so far (thumb–index, thumb–middle).
+* `aperture_person`: the same with the largest apertures z-scored per person (the baseline given the
+  per-person calibration `phmm_person` gets).
 * `regression`: least squares from the last frame's features (and 1) to the size in cm, snapped.
 * `hmmlearn`: one left-right `hmmlearn.hmm.GaussianHMM` per size trained on full reaches; the size
   of highest log-likelihood of the prefix (hmmlearn's paths may end in any state).
@@ -148,6 +155,33 @@ def profile_at(profile: np.ndarray, lengths: np.ndarray, fraction: float) -> np.
     return profile[:, np.arange(len(lengths)), ends]
 
 
+def phi_by_fraction(phmm: P.PHMM, Z: list[np.ndarray], profile: np.ndarray, lengths: np.ndarray, cfg
+                    ) -> dict[float, np.ndarray]:
+    """{fraction: φ (B,)} for every `cfg.fractions`: on whole reaches `recognise_phmm`'s search
+    (the lattice's best φ when `cfg.search` is off), on prefixes the lattice φ of the highest
+    prefix likelihood (`profile`, `lengths` from `prefix_profile` of `phmm` on `Z`)."""
+    lattice = phi_lattice(cfg)
+    out = {f: lattice[np.argmax(profile_at(profile, lengths, f), axis=0)] for f in cfg.fractions}
+    if cfg.search:
+        out[1.0] = recognise_phmm(phmm, Z, cfg)
+    return out
+
+
+def cross_validated_phi(seqs: list[np.ndarray], y: np.ndarray, persons: np.ndarray, setting: Setting, cfg
+                        ) -> dict[float, np.ndarray]:
+    """{fraction: φ (B,)} of every sequence from the PHMM with `setting` fitted on the other persons'
+    sequences (leave one person out, features standardised with those persons' frames)."""
+    out = {f: np.zeros(len(seqs)) for f in cfg.fractions}
+    for person in sorted(set(persons.tolist())):
+        held = persons == person
+        Z_in, Z_out = standardise([s for s, k in zip(seqs, held) if not k], [s for s, k in zip(seqs, held) if k])
+        phmm = fit_phmm(Z_in, y[~held], setting, cfg)
+        phi = phi_by_fraction(phmm, Z_out, *prefix_profile(phmm, Z_out, cfg), cfg)
+        for f in cfg.fractions:
+            out[f][held] = phi[f]
+    return out
+
+
 # --- hmmlearn ---
 
 def _hmmlearn_model(Za: list[np.ndarray], setting: Setting, cfg):
@@ -206,15 +240,41 @@ def predict_hmmlearn(models, Z) -> np.ndarray:
 
 # --- baselines fitted on the training prefixes of the same fraction ---
 
+def max_apertures(Z: list[np.ndarray]) -> np.ndarray:
+    """(B, 2) the largest thumb–index and thumb–middle apertures of each sequence."""
+    return np.stack([z[:, list(APERTURES)].max(0) for z in Z])
+
+
+def standardise_per_person(x: np.ndarray, persons: np.ndarray) -> np.ndarray:
+    """(B, K) `x` z-scored per column over the rows of each person (`persons` (B,)): the person's
+    offset and scale, read off that person's unlabelled rows."""
+    out = np.empty_like(x, dtype=float)
+    for p in set(persons.tolist()):
+        own = persons == p
+        sd = x[own].std(0)
+        out[own] = (x[own] - x[own].mean(0)) / np.where(sd > 1e-12, sd, 1.0)
+    return out
+
+
+def nearest_class_mean(x_train: np.ndarray, y: np.ndarray, x_test: np.ndarray) -> np.ndarray:
+    """Size classes (B',) of the rows of `x_test` (B', K) by the nearest (Euclidean) class mean of
+    `x_train` (B, K) with classes `y` (B,); a class absent from `y` is never chosen."""
+    means = np.stack([x_train[y == k].mean(0) if np.any(y == k) else np.full(x_train.shape[1], np.inf)
+                      for k in range(N_SIZES)])
+    return np.argmin(np.sum((x_test[:, None] - means[None]) ** 2, axis=-1), axis=1)
+
+
 def predict_aperture(Z_train, y, Z_test) -> np.ndarray:
     """Nearest class mean (Euclidean) of the largest apertures so far (thumb–index, thumb–middle)."""
-    def top(Z):
-        return np.stack([z[:, list(APERTURES)].max(0) for z in Z])
+    return nearest_class_mean(max_apertures(Z_train), y, max_apertures(Z_test))
 
-    tops = top(Z_train)
-    means = np.stack([tops[y == k].mean(0) if np.any(y == k) else np.full(len(APERTURES), np.inf)
-                      for k in range(N_SIZES)])
-    return np.argmin(np.sum((top(Z_test)[:, None] - means[None]) ** 2, axis=-1), axis=1)
+
+def predict_aperture_person(Z_train, y, persons: np.ndarray, Z_test) -> np.ndarray:
+    """`predict_aperture` on the largest apertures z-scored per person (training persons `persons`
+    (B,); the test sequences are one person's)."""
+    train = standardise_per_person(max_apertures(Z_train), persons)
+    test = standardise_per_person(max_apertures(Z_test), np.zeros(len(Z_test), int))
+    return nearest_class_mean(train, y, test)
 
 
 def predict_regression(Z_train, y, Z_test) -> np.ndarray:

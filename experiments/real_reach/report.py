@@ -16,6 +16,12 @@ frame: the wrist, the thumb, index and middle finger tips relative to the wrist,
 and thumb–middle apertures, z-scored with the training frames. "Along the reach": every method answers on the first 20–100 %
 of the frames (the aperture, regression and DTW baselines are refitted on the training reaches'
 prefixes of the same share; the HMMs are trained on whole reaches and score the prefix).
+The PHMM's φ is read three ways: snapped to the nearest size; by the nearest class mean of the
+training persons' cross-validated φ (each training person's φ from a PHMM fitted on the other
+training persons, with the fold's chosen setting: a calibration of φ learnt without the held-out
+person); and the same with every φ z-scored over its person's reaches ("z-scored per person": the
+held-out person's unlabelled reaches, all three sizes in equal shares, give an offset and scale of
+φ — beside it the aperture rule with the same per-person z-score).
 
 **Choice of settings, never on the held-out person.** The PHMM's states ({states}), covariance
 floor ({floors}), corners ({grids}: S and L, or S, M and L) and covariances ({covs}: per corner, or
