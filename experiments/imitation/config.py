@@ -57,10 +57,10 @@ class Config:
     grasp_cnn_epochs: int = 40
     # robot (sim.task_controller)
     robot: bool = True
-    # the Karlsruhe hand: both hands lift and place the classes' own objects alike (10 of 12 tasks each), but
-    # with a class that is not the object's (a misrecognised grasp) the Karlsruhe hand finished 37 of 60 tasks and
-    # the Barrett hand 20 (MAP Fig. 2 maps Medium Wrap to its Two-finger Thumb, which lifts no object here);
-    # validation demonstrations (seed 1001, quick preset, 12 demonstrations): task success 6 against 4
+    # the Karlsruhe hand (`python -m experiments.imitation.hand_choice`): both hands finish the tasks of each
+    # class's own object alike (10 of 12), but with a class that is not the object's (a misrecognised grasp) the
+    # Karlsruhe hand finished 37 of 60 and the Barrett hand 20 (MAP Fig. 2 maps Abducted Thumb to its Two-finger
+    # Thumb, which lifted none of the six objects); validation demonstrations: task success 6 of 12 against 4
     robot_hand: str = "karlsruhe"
     approach: str = "phmm"               # the arm's approach: the synthesised reach ("phmm") or a straight line
     place_tolerance_m: float = 0.05      # a task succeeds with the right object within this of the place, upright
