@@ -29,9 +29,10 @@ from experiments.data import video
 from experiments.data.grasp_database import DATABASE_PRESETS, DatabaseOptions, database
 from experiments.imitation.config import Config
 from experiments.imitation.demonstrations import Demo, draw_demos, render_demo
-from experiments.imitation.fovea import Fovea
+from experiments.imitation.fovea import Fovea, fovea_rig
 from lfd_jax.grasp import (Crops, Recogniser, RecogniserOptions, build_recogniser, cached_convnet, features,
                            fit_convnet, hog_config, hog_features, net_labels, recognise)
+from lfd_jax.imitation import camera_rotation
 from sim.grasping import GRASP_CLASSES
 from sim.scenes import PART_NAMES
 
@@ -165,5 +166,15 @@ def grasp_function(cfg: Config, models_grasp, chroma_skin, demo: Demo, rec: vide
     return at
 
 
+def view_rotation(cfg: Config, rec: video.Recording, hand_rc: np.ndarray) -> np.ndarray:
+    """The world -> camera rotation (camera axes x right, y down, z forward) of the view `hand_views` cuts
+    the hand from when the tracked hand is at `hand_rc` (2,) (row, col) in the left view: the left camera's,
+    or with `cfg.fovea_px` the foveal camera's turned to that pixel (`fovea.fovea_rig`). The frame in which
+    eq. 4's orientation is recognised (`lfd_jax.imitation.hand_rotation`)."""
+    if not cfg.fovea_px:
+        return camera_rotation(rec.P_left)
+    return np.asarray(fovea_rig(rec.P_left, hand_rc, cfg.fovea_px, cfg.fovea_fov_deg).rotation, float).T
+
+
 __all__ = ["crop_window", "database_options", "demonstration_crops", "grasp_function", "grasp_recogniser", "hand_crop",
-           "hand_views"]
+           "hand_views", "view_rotation"]

@@ -88,8 +88,10 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
                "- Grasp recognition runs on the hand crop of the left view at the recognised grasp moment; at the "
                "quick preset's 160 x 120 the hand is about 10 pixels wide, so the grasp class is close to chance "
                "there."),
-              "- The recognised hand orientation is relative to the camera; the robot is given the grasp's canonical "
-              "orientation (`hand_rot=None`), not the recognised one.",
+              ("- The hand orientation eq. 4 recognises (the study's database) is turned from the view it was "
+               "recognised in into the world (`lfd_jax.imitation.hand_rotation`); the robot imitates its turn about "
+               "the vertical." if cfg.grasp_database == "study" else
+               "- The demonstrations' crops carry no orientation: the robot takes the grasp's canonical one."),
               "- The robot's approach follows the reach PHMM's synthesised movement to the recognised object "
               "(`approach: phmm`) or the controller's straight line (`approach: straight`).",
               "- Robot scene objects stand in for the video's binoculars, cup and pitcher "

@@ -14,7 +14,7 @@ from experiments.config import parse_config, progress
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo, table_z
-from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser
+from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser, view_rotation
 from lfd_common import Cache, enable_compilation_cache
 from lfd_jax import imitation as im
 
@@ -134,14 +134,15 @@ def task_spec(cfg: Config, demo: Demo, r: im.Recognised) -> sim.TaskSpec:
     return im.task_spec(r, scene_objects(demo), demo.objects_xy, cfg.robot_hand)
 
 
-def robot_task(cfg: Config, demo: Demo, r: im.Recognised, phmms, render: bool = False):
+def robot_task(cfg: Config, demo: Demo, r: im.Recognised, phmms, render: bool = False, camera_rot=None):
     """The robot repeats what was recognised (`lfd_jax.imitation.robot_task`, MAP §III grasp strategy
     through the mapping table) with the `task_spec`, approaching along the synthesised reach to the
-    object (the reach PHMM `phmms[pipeline.REACH]` where `cfg.approach` is "phmm", else a straight line).
-    Returns the `sim.TaskResult`."""
+    object (the reach PHMM `phmms[pipeline.REACH]` where `cfg.approach` is "phmm", else a straight line),
+    the hand turned as recognised where `camera_rot` (the world -> camera rotation of the view the grasp
+    was recognised in, `grasp_stage.view_rotation`) is given. Returns the `sim.TaskResult`."""
     reach = phmms[pl.REACH] if cfg.approach == "phmm" else None
     return im.robot_task(r, scene_objects(demo), demo.objects_xy, reach, cfg.robot_hand, seed=int(demo.seed % 1000),
-                         render=render, area=pl.AREA)
+                         render=render, area=pl.AREA, camera_rot=camera_rot)
 
 
 # ------------------------------------------------------------------------------------------ per demo
@@ -189,7 +190,8 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     ran = robot and cfg.robot and r.kind is not None
     if ran:
         t0 = time.perf_counter()
-        res = robot_task(cfg, demo, r, models.phmms, render=render_robot)
+        seen_from = view_rotation(cfg, rec, tracked.hand_rc[r.grasp_frame]) if r.grasp_frame >= 0 else None
+        res = robot_task(cfg, demo, r, models.phmms, render=render_robot, camera_rot=seen_from)
         times["robot_s"] = time.perf_counter() - t0
         out["robot"], out["task_success"] = res, task_done(cfg, demo, r, res)
     failed = wrong  # a failed task: the first recognition stage that went wrong, else the robot's stage

@@ -14,7 +14,8 @@ mapping of MAP (Romero et al. 2009), step by step:
    `ScenePlace`, `moved_object`, `changed_shares`, `pixel_ray`, `project`).
 4. `recognise_demo` runs 2-3 on one tracked recording -> `Recognised`.
 5. The robot repeats the task (`task_spec`, `robot_task`; MAP §III), approaching along the reach
-   PHMM's synthesised movement (`synthesised_reach`).
+   PHMM's synthesised movement (`synthesised_reach`), the hand turned as the person's was where the
+   grasp recogniser gave an orientation (`hand_rotation`).
 
 Example:
     ```python
@@ -30,12 +31,12 @@ from lfd_jax.imitation._src.place import (ScenePlace, changed_shares, moved_obje
                                           scene_place)
 from lfd_jax.imitation._src.recognition import (KINDS, Recognised, grasp_and_putdown, movement, reach_segment,
                                                 reach_target, recognise_demo, recognizer)
-from lfd_jax.imitation._src.robot import robot_task, synthesised_reach, task_spec
+from lfd_jax.imitation._src.robot import hand_rotation, robot_task, synthesised_reach, task_spec
 from lfd_jax.imitation._src.tracked import Tracked, camera_rotation, median_filter, plausible, stream_of
 
 __all__ = [
     "KINDS", "Recognised", "ScenePlace", "TableArea", "Tracked", "camera_rotation", "changed_shares",
-    "grasp_and_putdown", "median_filter", "moved_object", "movement", "phi_to_xy", "pixel_ray", "place_reader",
-    "plausible", "project", "reach_segment", "reach_target", "recognise_demo", "recognizer", "robot_task",
-    "scene_place", "stream_of", "synthesised_reach", "task_spec", "xy_to_phi",
+    "grasp_and_putdown", "hand_rotation", "median_filter", "moved_object", "movement", "phi_to_xy", "pixel_ray",
+    "place_reader", "plausible", "project", "reach_segment", "reach_target", "recognise_demo", "recognizer",
+    "robot_task", "scene_place", "stream_of", "synthesised_reach", "task_spec", "xy_to_phi",
 ]
