@@ -89,6 +89,10 @@ def test_bad_input_names_the_argument():
         Config(grasp_database="internet")
     with pytest.raises(ValueError, match="grasp_window_frac"):
         Config(grasp_window_frac=-0.1)
+    with pytest.raises(ValueError, match="robot_hand"):
+        Config(robot_hand="shadow")
+    with pytest.raises(ValueError, match="robot_orientation"):
+        Config(robot_orientation="upside down")
 
 
 def test_hand_crop_window_keeps_a_skin_coloured_jacket_out():

@@ -24,7 +24,8 @@ Per demonstration (`stages.run_demo`, `pipeline`, the steps of `lfd_jax.imitatio
    grasp study's rendered database, which also gives the hand's orientation, eq. 4); the hand cut from
    the left view or from a foveal camera turned to the tracked hand (`fovea`);
 5. the robot (`sim.task_controller.run_task`, MAP §III grasp strategy with the mapped preshape) does
-   the task, its hand turned about the vertical as the person's where eq. 4 gave an orientation.
+   the task, its hand turned about the vertical as the person's where eq. 4 gave an orientation and
+   `robot_orientation` is "recognised" (else the grasp's canonical orientation).
 Settings (tracker offset, PHMM observation noise, movement threshold) are chosen on validation
 demonstrations of their own seed; the PHMMs are trained on kinematics of a third seed.
 

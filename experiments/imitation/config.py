@@ -62,6 +62,10 @@ class Config:
     # Karlsruhe hand finished 37 of 60 and the Barrett hand 20 (MAP Fig. 2 maps Abducted Thumb to its Two-finger
     # Thumb, which lifted none of the six objects); validation demonstrations: task success 6 of 12 against 4
     robot_hand: str = "karlsruhe"
+    # the robot hand's turn about the vertical: the grasp's canonical one, or the person's as eq. 4 recognised it
+    # ("recognised", with the study's database only; `lfd_jax.imitation.hand_rotation`); on 5 validation transfers
+    # (quick preset, study database) the recognised one finished 1 task, the canonical one 2
+    robot_orientation: str = "canonical"
     approach: str = "phmm"               # the arm's approach: the synthesised reach ("phmm") or a straight line
     place_tolerance_m: float = 0.05      # a task succeeds with the right object within this of the place, upright
     # a transfer's place from the object's own displacement in the video (`lfd_jax.imitation.scene_place`; else,
@@ -106,6 +110,8 @@ class Config:
             check_real(v, "grasp_frames_s", min_value=-10.0, max_value=10.0)
         if self.robot_hand not in ("barrett", "karlsruhe"):
             raise ValueError(f"robot_hand: expected 'barrett' or 'karlsruhe', got {self.robot_hand!r}")
+        if self.robot_orientation not in ("canonical", "recognised"):
+            raise ValueError(f"robot_orientation: expected 'canonical' or 'recognised', got {self.robot_orientation!r}")
         if self.approach not in ("phmm", "straight"):
             raise ValueError(f"approach: expected 'phmm' or 'straight', got {self.approach!r}")
         for name in ("robot", "coarse_scale", "place_from_scene"):

@@ -90,8 +90,9 @@ def report(cfg, settings, demos: list[Demo], results: list[dict], metrics: dict)
                "there."),
               ("- The hand orientation eq. 4 recognises (the study's database) is turned from the view it was "
                "recognised in into the world (`lfd_jax.imitation.hand_rotation`); the robot imitates its turn about "
-               "the vertical." if cfg.grasp_database == "study" else
-               "- The demonstrations' crops carry no orientation: the robot takes the grasp's canonical one."),
+               "the vertical." if cfg.robot_orientation == "recognised" and cfg.grasp_database == "study" else
+               "- The robot's hand takes the grasp's canonical orientation (`robot_orientation: canonical`; the "
+               "demonstrations' crops carry no orientation, the study's database gives one by eq. 4)."),
               "- The robot's approach follows the reach PHMM's synthesised movement to the recognised object "
               "(`approach: phmm`) or the controller's straight line (`approach: straight`).",
               "- Robot scene objects stand in for the video's binoculars, cup and pitcher "

@@ -190,7 +190,8 @@ def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = Tr
     ran = robot and cfg.robot and r.kind is not None
     if ran:
         t0 = time.perf_counter()
-        seen_from = view_rotation(cfg, rec, tracked.hand_rc[r.grasp_frame]) if r.grasp_frame >= 0 else None
+        oriented = cfg.robot_orientation == "recognised" and r.grasp_frame >= 0
+        seen_from = view_rotation(cfg, rec, tracked.hand_rc[r.grasp_frame]) if oriented else None
         res = robot_task(cfg, demo, r, models.phmms, render=render_robot, camera_rot=seen_from)
         times["robot_s"] = time.perf_counter() - t0
         out["robot"], out["task_success"] = res, task_done(cfg, demo, r, res)
