@@ -2,11 +2,13 @@
 
 `mjx.Data` keeps implementation-specific arrays in `data._impl` (`DataJAX` for `impl="jax"`, a Warp
 data class for `impl="warp"`), which is not public API and may change between MJX releases. `sim`
-needs three of them:
+needs four of them:
 * the mass matrix M (MJX-JAX `_impl.M`, dense (nv, nv) for small models), which `mjx_step`
   reads after the forward pass and writes back before integrating (to order the LAPACK calls);
 * the signed distance of every candidate contact (MJX-JAX `_impl.contact.dist`, (ncon,) per world,
-  negative when penetrating), for the contact-budget check of `grasp_rollout`;
+  negative when penetrating), for the contact-budget check of `grasp_rollout` and the contacts the
+  task controller reads (`sim.robot.TaskSim` on MJX);
+* the geom pair of every candidate contact (MJX-JAX `_impl.contact.geom`, (ncon, 2)), for the same;
 * the number of contacts in use (MJX-Warp `_impl.nacon`), for the contact-buffer check.
 
 Importing this module warns when the installed `mujoco-mjx` is outside `SUPPORTED_MJX`; a missing
@@ -21,7 +23,7 @@ import warnings
 import jax
 from mujoco import mjx
 
-__all__ = ["SUPPORTED_MJX", "contact_count", "contact_distances", "mass_matrix", "mjx_version",
+__all__ = ["SUPPORTED_MJX", "contact_count", "contact_distances", "contact_geoms", "mass_matrix", "mjx_version",
            "with_mass_matrix"]
 
 SUPPORTED_MJX = ((3, 17), (4, 0))  # [first, last): the releases these field names were checked with
@@ -70,6 +72,11 @@ def with_mass_matrix(data: mjx.Data, mass: jax.Array) -> mjx.Data:
 def contact_distances(data: mjx.Data) -> jax.Array:
     """MJX-JAX: the signed distance (..., ncon) of every candidate contact (negative = penetrating)."""
     return _field(data, "_impl.contact.dist")
+
+
+def contact_geoms(data: mjx.Data) -> jax.Array:
+    """MJX-JAX: the geom ids (..., ncon, 2) of every candidate contact (`contact_distances` says which touch)."""
+    return _field(data, "_impl.contact.geom")
 
 
 def contact_count(data: mjx.Data) -> jax.Array | None:

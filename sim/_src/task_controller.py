@@ -1,6 +1,8 @@
 """The robot's task controller: pick one object up with the MAP §III grasp strategy on the WAM-like arm
 of `sim.robot.manipulator_model`, carry it to a place on the table, put it down upright, release it.
-Native MuJoCo on the CPU, one world, a Python control loop at `CONTROL_DT_S`.
+One world, a Python control loop at `CONTROL_DT_S`; the physics under it on a backend
+(`TaskOptions.backend`): native MuJoCo (`TaskSim`) or MJX-JAX (`MjxTaskSim`: one jitted program per
+control period, on the default JAX device), the controller, IK and plan the same code on both.
 
 What it does, in order (`run_task(spec)` -> `TaskResult`):
 
@@ -81,8 +83,8 @@ from sim._src.grasp_strategy import CONTROL_DT_S, DONE, HORIZON_S, LIFT, initial
 from sim._src.manipulator import HOME_Q
 from sim._src.manipulator_ik import forward_kinematics
 from sim._src.robot_hands import HAND_NAMES
-from sim._src.task_motion import (TaskSim, held_links, hold, min_jerk, move, object_tilt, ramp_fingers,
-    retarget_path, tilt_correction, upright_axis)
+from sim._src.task_motion import (held_links, hold, min_jerk, move, object_tilt, ramp_fingers,
+    retarget_path, task_sim, tilt_correction, upright_axis)
 from sim._src.task_plan import (ABOVE_M, RETRACT_M, RETRACT_UP_M, TaskOptions, TaskSpec, check_spec,
     grasp_controller, on_table, reachable_plan, task_scene)
 
@@ -144,7 +146,7 @@ class TaskResult(NamedTuple):
 
 def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: int = 0,
              options: TaskOptions = TaskOptions()) -> TaskResult:
-    """Run one pick-and-place task with the MAP §III grasp strategy on the native MuJoCo backend (CPU).
+    """Run one pick-and-place task with the MAP §III grasp strategy (physics: `options.backend`).
 
     See the module docstring for what it does, stage by stage, and what counts as success.
 
@@ -154,7 +156,7 @@ def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: in
             home pose to above the pre-grasp pose (`retarget_path` moves it onto those two); None: a
             straight line.
         seed: the grasp plan's hand-pose noise (`plan_trials`), >= 0.
-        options: the grasp mapping and the recorded video (`TaskOptions`).
+        options: the grasp mapping, the physics backend and the recorded video (`TaskOptions`).
 
     Returns:
         The `TaskResult`. A place the arm cannot reach (or off the table) is a failed result at
@@ -162,7 +164,7 @@ def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: in
 
     Raises:
         ValueError: bad input, naming the argument (or the field of `spec`; `camera` for a camera the
-            manipulator scene does not have).
+            manipulator scene does not have; `backend` for a scene that "mjx-jax" cannot simulate).
     """
     spec = check_spec(spec)
     seed = check_int(seed, "seed", min_value=0)
@@ -185,7 +187,7 @@ def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: in
 
     params = plan.params
     open_, closed = params.open_[0].astype(float), params.closed[0].astype(float)
-    sim = TaskSim(scene, spec, open_, options)
+    sim = task_sim(scene, spec, open_, options)
     stage = {"name": "approach", "t": 0.0, "wall": time.perf_counter()}
 
     def next_stage(name: str):

@@ -1,21 +1,29 @@
-"""The motion half of the robot's task controller (`run_task` runs it): one native
-MuJoCo world stepped by control periods (`TaskSim`: palm pose -> tracking IK -> the arm's servo targets,
-the grasp study's sensors read per period), min-jerk moves along polylines, holds, and the geometry of
-standing a held object upright."""
+"""The motion half of the robot's task controller (`run_task` runs it): one MuJoCo world stepped by
+control periods (`TaskSim`: palm pose -> tracking IK -> the arm's servo targets, the grasp study's
+sensors read per period; `MjxTaskSim`: the same with the physics on MJX-JAX), min-jerk moves along
+polylines, holds, and the geometry of standing a held object upright."""
 from __future__ import annotations
 
+import functools
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
 import mujoco
 import numpy as np
+from mujoco import mjx
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation, Slerp
 
 from sim._src.grasp_rollout import SUBSTEPS, peak_touch
+from sim._src.mjx_compat import contact_distances, contact_geoms
+from sim._src.rollout import mjx_step
 from sim._src.grasp_strategy import CONTROL_DT_S
 from sim._src.manipulator import HOME_Q, manipulator_qpos
 from sim._src.manipulator_ik import solve_ik
 from sim._src.render import setup_rendering
 from sim._src.robot_hands import SceneLayout
-from sim._src.task_plan import TaskOptions, TaskScene, TaskSpec
+from sim._src.task_plan import TaskOptions, TaskScene, TaskSpec, task_scene
 
 TRACK_ITERATIONS = 10        # DLS steps per control step of the tracking IK
 
@@ -87,14 +95,18 @@ class TaskSim:
         arm = self.scene.arm
         self.data.ctrl[arm.arm_ctrl] = self.q_cmd
         self.data.ctrl[arm.hand_ctrl] = fingers
-        record = np.empty((1, SUBSTEPS, self.model.nsensordata))
-        for k in range(SUBSTEPS):
-            mujoco.mj_step(self.model, self.data)
-            record[0, k] = self.data.sensordata
-        self.sensordata = peak_touch(record, self.scene.sensors)
+        self.sensordata = peak_touch(self._substeps()[None], self.scene.sensors)
         self.t += CONTROL_DT_S
         if self.renderer is not None and self.t >= self.next_frame - 1e-9:
             self._grab()
+
+    def _substeps(self) -> np.ndarray:
+        """The physics of one control period at `data.ctrl`: (SUBSTEPS, S) sensordata of each substep."""
+        record = np.empty((SUBSTEPS, self.model.nsensordata))
+        for k in range(SUBSTEPS):
+            mujoco.mj_step(self.model, self.data)
+            record[k] = self.data.sensordata
+        return record
 
     def palm(self) -> np.ndarray:
         """The palm centre's position now.
@@ -172,6 +184,120 @@ class TaskSim:
         """Free the renderer's GL context, if there is one."""
         if self.renderer is not None:
             self.renderer.close()
+
+
+# XLA:CPU's default fusion emitters (jaxlib 0.10.2) compile MJX's kinematics of the manipulator scene
+# into code that ran for more than 100 s (killed) where the loop-fusion emitter's runs in 3 ms; the grasp
+# scene (a floating hand) is not affected. A per-program option, so the rest of the process keeps its
+# flags (other back ends ignore it).
+_MJX_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+
+
+class _MjxReads(NamedTuple):
+    """What the controller reads after a control period, copied to the host (float32, one world)."""
+
+    qpos: jax.Array             # (nq,)
+    qvel: jax.Array             # (nv,)
+    xpos: jax.Array             # (nbody, 3)
+    xmat: jax.Array             # (nbody, 9)
+    site_xpos: jax.Array        # (nsite, 3)
+    actuator_length: jax.Array  # (nu,)
+    pairs: jax.Array            # (ncon, 2) int: geom ids of each candidate contact, -1 where it does not touch
+
+
+@functools.partial(jax.jit, compiler_options=_MJX_COMPILER_OPTIONS)
+def _mjx_period(mjx_model: mjx.Model, data: mjx.Data, ctrl: jax.Array) -> tuple[mjx.Data, jax.Array, _MjxReads]:
+    """One control period on MJX-JAX: `SUBSTEPS` `mjx_step`s at ctrl (nu,); (data, (SUBSTEPS, S)
+    sensordata of each substep, the reads). A contact touches at distance <= 0, as MuJoCo keeps it
+    (no geom margins in the manipulator scene)."""
+    def substep(d, _):
+        d = mjx_step(mjx_model, d)
+        return d, d.sensordata
+
+    data, record = jax.lax.scan(substep, data.replace(ctrl=ctrl), None, length=SUBSTEPS)
+    pairs = jnp.where((contact_distances(data) <= 0)[:, None], contact_geoms(data), -1)
+    reads = _MjxReads(data.qpos, data.qvel, data.xpos, data.xmat.reshape(-1, 9), data.site_xpos,
+                      data.actuator_length, pairs)
+    return data, record, reads
+
+
+@functools.lru_cache(maxsize=8)
+def _mjx_model(hand: str, objects: tuple[int, ...], object_xy: tuple[tuple[float, float], ...]) -> mjx.Model:
+    """The task scene (`task_scene`, same arguments) on MJX-JAX, committed to the default device (a
+    second task then reuses the compiled period: placements change only the model's arrays, not its
+    static structure).
+
+    Raises:
+        ValueError: a scene with a geom pair MJX-JAX cannot collide, naming `backend`.
+    """
+    try:
+        model = mjx.put_model(task_scene(hand, objects, object_xy).model, impl="jax")
+    except NotImplementedError as err:
+        raise ValueError(f"backend: 'mjx-jax' cannot simulate this scene ({err}; the arm's cylinders and "
+                         "the Pinch cube, class 9); use 'native'") from err
+    return jax.device_put(model, jax.devices()[0])
+
+
+class MjxTaskSim(TaskSim):
+    """`TaskSim` with the physics on MJX-JAX: the same start, controller, IK and reads.
+
+    Each control period is one jitted program (`_mjx_period`: a `lax.scan` of `SUBSTEPS` `mjx_step`s
+    recording sensordata, compiled once per hand and object classes). After it, the state the
+    controller reads (qpos, qvel, body and site poses, actuator lengths) is copied into `data`, and the
+    contacts from MJX's candidate contacts (touching at distance <= 0, as `TaskSim.contact`); the full
+    state is copied into `data` (`mjx.get_data_into`) only to render a frame.
+
+    Args:
+        scene: the task's scene (`task_scene`).
+        spec: the task (checked).
+        open_: (D,) the hand's starting targets (the open preshape).
+        options: as `TaskSim`'s.
+
+    Raises:
+        ValueError: a scene MJX-JAX cannot simulate (`backend`).
+    """
+
+    mjx_data = None   # until the start is on the device: frames come from `data` itself
+
+    def __init__(self, scene: TaskScene, spec: TaskSpec, open_: np.ndarray, options: TaskOptions = TaskOptions()):
+        self.mjx_model = _mjx_model(spec.hand, spec.objects, tuple(map(tuple, np.asarray(spec.object_xy).tolist())))
+        super().__init__(scene, spec, open_, options)
+        self.device = jax.devices()[0]
+        self.mjx_data = jax.device_put(mjx.put_data(self.model, self.data, impl="jax"), self.device)
+        self.pairs = super()._pairs()   # the start: MuJoCo's forward pass of the same state
+
+    def _substeps(self) -> np.ndarray:
+        ctrl = jax.device_put(jnp.asarray(self.data.ctrl, jnp.float32), self.device)
+        self.mjx_data, record, reads = _mjx_period(self.mjx_model, self.mjx_data, ctrl)
+        record, reads = jax.device_get((record, reads))
+        for name in ("qpos", "qvel", "xpos", "xmat", "site_xpos", "actuator_length"):
+            getattr(self.data, name)[:] = getattr(reads, name)
+        self.pairs = reads.pairs[reads.pairs[:, 0] >= 0]
+        return np.asarray(record, np.float64)
+
+    def _pairs(self) -> np.ndarray:
+        return self.pairs
+
+    def _grab(self):
+        if self.mjx_data is not None:
+            mjx.get_data_into(self.data, self.model, self.mjx_data)
+        super()._grab()
+
+
+def task_sim(scene: TaskScene, spec: TaskSpec, open_: np.ndarray, options: TaskOptions = TaskOptions()) -> TaskSim:
+    """The world of a task on `options.backend`: a `TaskSim` ("native") or an `MjxTaskSim` ("mjx-jax").
+
+    Args:
+        scene: the task's scene (`task_scene`).
+        spec: the task (checked).
+        open_: (D,) the hand's starting targets.
+        options: the backend and the video (`TaskOptions`).
+
+    Returns:
+        The world, at the start.
+    """
+    cls = MjxTaskSim if options.backend == "mjx-jax" else TaskSim
+    return cls(scene, spec, open_, options)
 
 
 def _start_qpos(scene: TaskScene, open_: np.ndarray) -> np.ndarray:

@@ -30,6 +30,7 @@ HOLD_S = 0.3                 # the grasp controller's hold after its lift (its s
 RETRACT_M, RETRACT_UP_M = 0.08, 0.06
 ABOVE_M = 0.12               # the approach ends with a vertical descent from this far above the pre-grasp
 TABLE = TableSpec()
+TASK_BACKENDS: tuple[str, ...] = ("native", "mjx-jax")
 
 
 class TaskSpec(NamedTuple):
@@ -65,7 +66,7 @@ class TaskSpec(NamedTuple):
 
 @dataclass(frozen=True)
 class TaskOptions:
-    """How `run_task` runs a task: the grasp mapping, and the video it records.
+    """How `run_task` runs a task: the grasp mapping, the physics backend, and the video it records.
 
     Fields are checked when the object is made (the camera's name when the task's scene is built).
     Change one with `dataclasses.replace(options, ...)`.
@@ -73,6 +74,10 @@ class TaskOptions:
     Attributes:
         mapping: the human-to-robot grasp mapping, "map2009" (MAP Fig. 2) or "iros2008" (GRASP
             Fig. 2, Barrett hand only).
+        backend: the physics under the one controller (`TASK_BACKENDS`): "native" (MuJoCo's C
+            engine, float64) or "mjx-jax" (MJX's JAX implementation, float32, on the default JAX
+            device: one jitted program per control period; MJX-JAX has no cylinder-box collision, so a
+            scene with the Pinch cube (class 9) is refused).
         render: record frames of `camera` (EGL by default, `sim.setup_rendering`).
         camera: a camera of the manipulator scene ("front").
         width: frame width (px, in [16, 640]).
@@ -84,6 +89,7 @@ class TaskOptions:
     """
 
     mapping: str = "map2009"
+    backend: str = "native"
     render: bool = False
     camera: str = "front"
     width: int = 320
@@ -92,6 +98,7 @@ class TaskOptions:
 
     def __post_init__(self):
         object.__setattr__(self, "mapping", check_choice(self.mapping, "mapping", MAPPINGS))
+        object.__setattr__(self, "backend", check_choice(self.backend, "backend", TASK_BACKENDS))
         if not isinstance(self.render, (bool, np.bool_)):
             raise ValueError(f"render: expected a bool, got {self.render!r}")
         object.__setattr__(self, "render", bool(self.render))
