@@ -227,8 +227,12 @@ def test_coarse_to_fine_start_is_the_best_lattice_point(walk_phmm):
     best = np.argmax(scan, axis=0)
     # Some sequences' best points are off the coarse lattice (odd indices).
     assert np.any(np.stack(np.unravel_index(best, (25, 25)), -1) % 2 == 1)
-    start = parametric._start_points(phmm, X, lengths, 25, 2, 2)
+    start = parametric._start_points(phmm, X, lengths, 25, 2, 2)  # 144 pairs: one model per pair
     np.testing.assert_allclose(np.asarray(start), lattice[best], atol=1e-6)
+    # Five copies of the batch: more (candidate, sequence) pairs (720) than lattice points, so the
+    # refinement gathers the points' models from a table (`_lattice_models`) instead.
+    start = parametric._start_points(phmm, jnp.tile(X, (5, 1, 1)), jnp.tile(lengths, 5), 25, 2, 2)
+    np.testing.assert_allclose(np.asarray(start), np.tile(lattice[best], (5, 1)), atol=1e-6)
     with pytest.raises(ValueError, match="coarse_top"):
         P.recognize(phmm, X, lengths, coarse_top=0)
 

@@ -184,8 +184,26 @@ def stacked_log_density_columns(X: Float[Array, "B T D"], means: Float[Array, "B
     Returns:
         (T, N, B) log-densities.
     """
-    affine, const = affine_whitening(means, covariances)  # (B, N, D, D+1), (B, N)
-    batch, n_states, dim = means.shape
+    return affine_log_density_columns(X, *affine_whitening(means, covariances), reachable)
+
+
+def affine_log_density_columns(X: Float[Array, "B T D"], affine: Float[Array, "B N D D+1"], const: Float[Array, "B N"],
+                               reachable: tuple[np.ndarray, np.ndarray] | None = None) -> Float[Array, "T N B"]:
+    """`stacked_log_density_columns` from each sequence's affine whitening maps and normalising
+    constants, computed beforehand (`affine_whitening`; PHMM recognition whitens each lattice
+    point's model once and gathers it for every sequence that scores that point). Pure jnp, no
+    input checks.
+
+    Args:
+        X: (B, T, D) padded sequences.
+        affine: (B, N, D, D+1) each sequence's [W | -W μ] per state.
+        const: (B, N) each sequence's D log 2π + log|Σ| per state.
+        reachable: None, or (first, last) as in `stacked_log_density_columns`.
+
+    Returns:
+        (T, N, B) log-densities.
+    """
+    batch, n_states, dim = affine.shape[:3]
     stacked = affine.reshape(batch, n_states * dim, dim + 1)
     augmented = with_ones(jnp.swapaxes(X, 1, 2), 1)  # (B, D+1, T)
     blocks = []

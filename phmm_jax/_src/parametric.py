@@ -29,7 +29,7 @@ from phmm_jax._src.checks import (check_distances, check_fit_scale, check_grid_s
     covariance_range, extrapolation_factor, mean_norm)
 from phmm_jax._src.data import Lengths, Sequences, check_feasible, stack_groups, to_device
 from phmm_jax._src.em import check_fit_result, em_step, initial_hmm, run_em
-from phmm_jax._src.emissions import stacked_log_density_columns
+from phmm_jax._src.emissions import affine_log_density_columns, affine_whitening, stacked_log_density_columns
 from phmm_jax._src.model import (HMM, HMMConfig, duration_log_probs, reachable_states,
     transitions_from_durations)
 from phmm_jax._src.options import FitOptions, check_options
@@ -355,6 +355,15 @@ _OWN_MODEL_COST = 6
 # (candidate, sequence) pairs scored at once under their own models: each holds its own interpolated
 # covariances and whitening maps (about 70 kB at N = 20, D = 21), so fewer than `_LATTICE_PAIRS`.
 _OWN_MODEL_PAIRS = 512
+# The refinement of the coarse-to-fine start scores lattice points only: where the lattice has fewer
+# points than a chunk has (candidate, sequence) pairs, each point's model is interpolated and whitened
+# once (`_lattice_models`) and the pairs gather theirs. The whitening (a Cholesky factor and its
+# inverse per state, small LAPACK calls) is about half of a pair's cost; with the table the d = 3
+# bench's search takes about 2/3 of the time. The table holds about 38 kB per point (N = 20, D = 21,
+# float32): 83 MB for 13^3 points; at most `_TABLE_POINTS` points, own models per pair beyond.
+_TABLE_POINTS = 4096
+# Lattice points interpolated and whitened at once for the table.
+_MODEL_BLOCK = 64
 # `recognize`'s coarse-to-fine start, chosen on validation data (200 movements of the d = 3 bench's
 # generator, another seed): every second lattice point, the 4 best per sequence refined, leaves no
 # sequence in a worse optimum than the whole 13^3 lattice (the 2 best: 1 of 200, 9 nats worse).
@@ -422,7 +431,9 @@ def _start_points(phmm: PHMM, X, lengths, lattice_points, coarse_stride: int, co
     are scored for every sequence under shared models (`_lattice_scores`); around each sequence's
     `coarse_top` best of them, the lattice points within stride - 1 indices along every parameter
     (a box of (2 stride - 1)^d, shifted inside the lattice at its faces) are scored under one model
-    per sequence (`_candidate_scores`), and the best of these is the start. Stride 1, or a coarse
+    per sequence, gathered from a table of every lattice point's model (`_lattice_models`) where
+    that has fewer models than the pairs (and at most `_TABLE_POINTS`), else `_candidate_scores`;
+    the best of these is the start. Stride 1, or a coarse
     lattice and boxes that cost more than the whole lattice (`_OWN_MODEL_COST`), score the whole
     lattice instead.
     """
@@ -439,9 +450,44 @@ def _start_points(phmm: PHMM, X, lengths, lattice_points, coarse_stride: int, co
     best = jax.lax.top_k(scores.T, top)[1]  # (B, k)
     box = np.stack(np.meshgrid(*[np.arange(w) for w in width], indexing="ij"), -1).reshape(-1, phmm.n_params)
     first = jnp.clip(jnp.asarray(coarse)[best] - (coarse_stride - 1), 0, points - width)  # (B, k, d)
-    candidates = (first[:, :, None] + box).reshape(X.shape[0], -1, phmm.n_params) / scale  # (B, P, d)
-    values = _candidate_scores(phmm, X, lengths, jnp.swapaxes(candidates, 0, 1))  # (P, B)
+    index = (first[:, :, None] + box).reshape(X.shape[0], -1, phmm.n_params)  # (B, P, d) lattice indices
+    candidates = index / scale
+    if np.prod(points) <= min(index.shape[0] * index.shape[1], _TABLE_POINTS):  # fewer models than pairs
+        strides = np.cumprod((1,) + tuple(points[::-1]))[-2::-1]  # C order, as `start_lattice`
+        table = _lattice_models(phmm, start_lattice(phmm.n_params, lattice_points))
+        values = _table_scores(phmm, X, lengths, table, jnp.sum(index * strides, axis=-1).T)  # (P, B)
+    else:
+        values = _candidate_scores(phmm, X, lengths, jnp.swapaxes(candidates, 0, 1))  # (P, B)
     return candidates[jnp.arange(X.shape[0]), jnp.argmax(values, axis=0)]
+
+
+def _lattice_models(phmm: PHMM, lattice: Float[Array, "M d"]):
+    """The interpolated model of every lattice point, as `_table_scores` reads it: affine whitening
+    maps (M, N, D, D+1) and normalising constants (M, N) (`affine_whitening`), log_cont and log_exit
+    (M, N, P); `_MODEL_BLOCK` points at a time (`lax.map`)."""
+    def block(phi):
+        hmms = jax.vmap(interpolate, in_axes=(None, 0))(phmm, phi)
+        return (*affine_whitening(hmms.means, hmms.covariances), hmms.log_cont, hmms.log_exit)
+
+    out = jax.lax.map(block, _blocks(lattice, _MODEL_BLOCK))
+    return tuple(a.reshape(-1, *a.shape[2:])[:lattice.shape[0]] for a in out)
+
+
+def _table_scores(phmm: PHMM, X, lengths, table, index: Int[Array, "P B"]) -> Float[Array, "P B"]:
+    """`_candidate_scores` of lattice points given by their flat indices (P, B) into `table`
+    (`_lattice_models`): the models are gathered, not interpolated and whitened again per pair."""
+    reachable = reachable_states(phmm.config, X.shape[1])
+
+    def at_block(ix):  # (p, B): the batch tiled p times, one model per row
+        tiled = lambda a: jnp.tile(a, (ix.shape[0],) + (1,) * (a.ndim - 1))  # noqa: E731
+        affine, const, log_cont, log_exit = (a[ix.reshape(-1)] for a in table)
+        log_b = affine_log_density_columns(tiled(X), affine, const, reachable)
+        chain = inference.Chain(jnp.moveaxis(log_cont, 0, -1), jnp.moveaxis(log_exit, 0, -1), phmm.config)
+        return inference.forward_loglik(chain, log_b, tiled(lengths)).reshape(ix.shape)
+
+    values = jax.lax.map(at_block, _blocks(index, max(1, _OWN_MODEL_PAIRS // X.shape[0])))
+    values = values.reshape(-1, X.shape[0])[:index.shape[0]]
+    return jnp.where(jnp.isfinite(values), values, -jnp.inf)
 
 
 @partial(jax.jit, static_argnames=("lattice_points", "chunk_size", "coarse_stride", "coarse_top"))
