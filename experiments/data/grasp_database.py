@@ -149,13 +149,15 @@ def randomized_views(n_views_per_grasp: int, n_hands_per_grasp: int, seed: int =
 class SceneSet(NamedTuple):
     """frames (N, H, W, 3) uint8 whole camera frames; labels (N,) int32 indices into GRASP_CLASSES;
     euler (N, 3) radians (`sim.grasp_views.view_euler`), quat (N, 4); reach (N,) how far along the reach
-    (1: the grasp completed)."""
+    (1: the grasp completed); foreground (N, H, W) bool, where the renderer drew the hand or the object
+    (the rest is the pasted clutter: what a realism step may replace, `lfd_jax.grasp.paste_backgrounds`)."""
 
     frames: np.ndarray
     labels: np.ndarray
     euler: np.ndarray
     quat: np.ndarray
     reach: np.ndarray
+    foreground: np.ndarray
 
 
 def randomized_scenes(n_per_grasp: int, n_hands_per_grasp: int, seed: int = 0, frame_size: int = 160,
@@ -174,20 +176,22 @@ def randomized_scenes(n_per_grasp: int, n_hands_per_grasp: int, seed: int = 0, f
 
     def build():
         frames = np.zeros((len(GRASP_CLASSES) * n_views, size, size, 3), np.uint8)
+        foreground = np.zeros(frames.shape[:3], bool)
         az, el, reach = (np.zeros(len(frames)) for _ in range(3))
         for row, g, rng, renderer, shape in _hand_renders(seed, 22, n_views, n_hands, size, progress, "scenes"):
             reach[row] = 1.0 if rng.uniform() < share else rng.uniform()
             camera, rotation, az[row], el[row] = _random_pose(renderer, rng, g, shape, reach[row])
             renderer.set_object_rgba([*rng.uniform(0.0, 1.0, 3), 1.0])
             rgb, hand, obj = renderer.render_with_mask(camera, rotation)
+            foreground[row] = hand | obj
             background = clutter_background(rng, size).astype(np.float32)
-            img = np.where((hand | obj)[..., None], rgb.astype(np.float32), background)
+            img = np.where(foreground[row][..., None], rgb.astype(np.float32), background)
             img = cv2.GaussianBlur(img, (0, 0), rng.uniform(0.1, 1.2))
             img += rng.normal(0.0, rng.uniform(0.0, 8.0), img.shape)
             frames[row] = np.clip(np.round(img), 0, 255).astype(np.uint8)
         euler = view_euler(az, el).astype(np.float32)
         return SceneSet(frames, np.repeat(np.arange(len(GRASP_CLASSES), dtype=np.int32), n_views), euler,
-                        np.asarray(euler_to_quat(euler)), reach)
+                        np.asarray(euler_to_quat(euler)), reach, foreground)
 
     return _cached(f"scenes_{n_views}x{n_hands}_{size}px", settings, build)
 

@@ -8,6 +8,7 @@ from experiments.data.grasp_database import DATABASE_PRESETS
 PAPER = {"accuracy_X": 0.61, "accuracy_Xp": 0.71, "accuracy_Xpp": 0.75, "human_X": 0.74,
          "orientation_error_deg": (0.0, 16.8, 10.5)}
 EULER_NAMES = ("azimuth", "elevation", "roll")
+REALISM_STEPS = ("background", "light", "blur", "noise", "jpeg")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,6 +53,11 @@ class Config:
     n_scenes: int = 5000             # scene_cnn: rendered scenes per grasp (`randomized_scenes`) it trains on,
     n_scene_hands: int = 100         # spread over this many random hands per grasp
     skin_adaptation: str = "none"    # none | background | both: the skin model adapted to each frame
+    scene_realism: str = "none"      # scene_cnn: realism steps on its training scenes, "+"-joined from
+                                     # background, light, blur, noise, jpeg (`lfd_jax.grasp.realistic_frames`)
+    backgrounds: str = "none"        # a folder with real video (cdnet_*/, sbi_indoor/, reach_grasp/: ../shared/data)
+                                     # the background step cuts its patches from (`scene_realism.background_frames`)
+    background_share: float = 1.0    # the share of training scenes the background step gives a real background
     db_pixels: int = 0               # database crops degraded to a hand this many pixels across (0: as rendered)
     n_validation: int = 300          # validation images (their own seed and hand) for tuning
     ladder: bool = True              # the six-rung ladder of where the accuracy goes
@@ -82,6 +88,14 @@ class Config:
                                      ("classifier", self.classifier, ("knn", "mlp", "cnn", "scene_cnn"))):
             if value not in choices:
                 raise ValueError(f"{name}: expected one of {choices}, got {value!r}")
+        steps = () if self.scene_realism == "none" else tuple(self.scene_realism.split("+"))
+        if not set(steps) <= set(REALISM_STEPS) or len(set(steps)) != len(steps):
+            raise ValueError(f"scene_realism: expected 'none' or distinct steps of {REALISM_STEPS} joined by '+', "
+                             f"got {self.scene_realism!r}")
+        if "background" in steps and self.backgrounds == "none":
+            raise ValueError("backgrounds: the background realism step needs a folder of real video")
+        if not 0.0 <= self.background_share <= 1.0:
+            raise ValueError(f"background_share: must be in [0, 1], got {self.background_share}")
         if not 0.0 <= self.metric_shrinkage <= 1.0:
             raise ValueError("metric_shrinkage: must be in [0, 1]")
         if not 0.0 < self.lsh_target_recall <= 1.0:
@@ -102,7 +116,10 @@ PRESETS = {
     # class from the convnet on the unmasked box around the hand (`lfd_jax.grasp`, trained 60 epochs on 5,000 rendered
     # scenes per grasp, `randomized_scenes`; eq. 3's kNN vote is reported beside it), eq. 4's orientation within
     # that class; LSH with four probes per table tuned on query-like validation images (the fewest probes of
-    # 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries: `lsh_probes`)
+    # 0 / 2 / 4 / 8 whose index reaches recall 0.9 on held-out validation queries: `lsh_probes`); no realism step
+    # on its training scenes (`scene_realism`): the best rung on the real gtea_grasps validation hands (real
+    # backgrounds + light) did not repeat its gain with a second seed, and the realism rungs lowered the rendered
+    # accuracy (`python -m experiments.grasp_recognition.realism`)
     "best": {**DATABASE_PRESETS["best"], "metric": "lda", "skin_adaptation": "background", "lsh_tuning": "validation",
              "lsh_probes": 4, "sweeps": False, "classifier": "scene_cnn", "cnn_epochs": 60,
              "real_photos": "../shared/data"},

@@ -17,7 +17,10 @@ Beyond the paper, the class can come from a trained network, with eq. 4's orient
 class: a perceptron on HOG (`fit_classifier`, `classify`, `NetClassifier`) or a convnet on the crops
 or on the unmasked boxes around the hand (`fit_convnet`, `classify_crops`, `network_input`,
 `augment`, `ConvClassifier`; cached on disk by `cached_convnet`, `trained_convnet`); `net_labels`
-gives a recogniser's network's classes.
+gives a recogniser's network's classes. Rendered training frames can be made to look more like real
+photos first (`realistic_frames` with `Realism`: real background texture `paste_backgrounds` from
+`background_patches`, light `adjust_light`, `blur` with `gaussian_kernels` / `motion_kernels`,
+`add_noise`, `jpeg_roundtrip`; parameters drawn by `sample_realism`).
 
 Every public function raises `ValueError` naming the argument for inputs of the wrong shape, empty
 where data is needed, or non-finite.
@@ -41,12 +44,17 @@ from lfd_jax.grasp._src.convnet import (ConvClassifier, augment, cached_convnet,
                                         network_input)
 from lfd_jax.grasp._src.crops import Crops, crops_of, segment_frames
 from lfd_jax.grasp._src.knn import hog_features, knn_predict
+from lfd_jax.grasp._src.realism import (Realism, RealismParams, add_noise, adjust_light, background_patches, blur,
+                                        gaussian_kernels, jpeg_roundtrip, motion_kernels, paste_backgrounds,
+                                        realistic_frames, sample_realism)
 from lfd_jax.grasp._src.recogniser import (Recognised, Recogniser, RecogniserOptions, build_recogniser, features,
                                            hog_config, net_labels, recognise, trained_convnet, transformed)
 
 __all__ = [
-    "ConvClassifier", "Crops", "NetClassifier", "Recognised", "Recogniser", "RecogniserOptions", "augment",
-    "build_recogniser", "cached_convnet", "classify", "classify_crops", "crops_of", "features", "fit_classifier",
-    "fit_convnet", "hog_config", "hog_features", "knn_predict", "net_labels", "network_input", "recognise",
+    "ConvClassifier", "Crops", "NetClassifier", "Realism", "RealismParams", "Recognised", "Recogniser",
+    "RecogniserOptions", "add_noise", "adjust_light", "augment", "background_patches", "blur", "build_recogniser",
+    "cached_convnet", "classify", "classify_crops", "crops_of", "features", "fit_classifier", "fit_convnet",
+    "gaussian_kernels", "hog_config", "hog_features", "jpeg_roundtrip", "knn_predict", "motion_kernels",
+    "net_labels", "network_input", "paste_backgrounds", "realistic_frames", "recognise", "sample_realism",
     "segment_frames", "trained_convnet", "transformed",
 ]
