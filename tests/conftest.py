@@ -68,7 +68,6 @@ HEAVY_FILES_FIRST = (
     "test_oac.py",
     "test_grasp_equivalence_barrett.py",
     "test_grasp_equivalence_karlsruhe.py",
-    "test_task_backends.py",
     "test_phmm_tabletop.py",
     "test_cli.py",
     "test_phmm_inference.py",
