@@ -424,37 +424,65 @@ def _coarse_indices(points: int, stride: int) -> np.ndarray:
     return np.unique(np.append(np.arange(0, points, stride), points - 1))
 
 
-def _start_points(phmm: PHMM, X, lengths, lattice_points, coarse_stride: int, coarse_top: int) -> Float[Array, "B d"]:
+class _StartPlan(NamedTuple):
+    """How `_start_points` finds the starts of a batch (static: shapes only)."""
+
+    points: np.ndarray  # (d,) start-lattice points per parameter
+    coarse: np.ndarray  # (Mc, d) lattice indices of the coarse lattice
+    width: np.ndarray  # (d,) the refinement box around a coarse point
+    top: int  # coarse points refined per sequence
+    method: str  # "lattice": the whole lattice; "table" or "pairs": coarse to fine, the refinement's models
+    #              gathered from `_lattice_models` or interpolated per (candidate, sequence) pair
+
+
+def _start_plan(n_params: int, lattice_points, coarse_stride: int, coarse_top: int, batch: int) -> _StartPlan:
+    """The coarse-to-fine geometry of `_start_points` and whether it pays: stride 1, or a coarse lattice
+    and boxes that cost more than the whole lattice (`_OWN_MODEL_COST`), score the whole lattice; the
+    refinement reads a table of every lattice point's model where that has fewer models than the
+    batch has (candidate, sequence) pairs (and at most `_TABLE_POINTS`)."""
+    points = np.asarray(_lattice_axes(n_params, lattice_points))
+    coarse = np.stack(np.meshgrid(*[_coarse_indices(n, coarse_stride) for n in points], indexing="ij"),
+                      -1).reshape(-1, n_params)
+    width = np.minimum(2 * coarse_stride - 1, points)
+    top = min(coarse_top, coarse.shape[0])
+    pairs = batch * top * int(np.prod(width))
+    if coarse_stride == 1 or coarse.shape[0] + _OWN_MODEL_COST * top * np.prod(width) >= np.prod(points):
+        method = "lattice"
+    elif np.prod(points) <= min(pairs, _TABLE_POINTS):
+        method = "table"
+    else:
+        method = "pairs"
+    return _StartPlan(points, coarse, width, top, method)
+
+
+def _start_points(phmm: PHMM, X, lengths, lattice_points, coarse_stride: int, coarse_top: int,
+                  table=None) -> Float[Array, "B d"]:
     """The best start-lattice point of every sequence (B, T, D), coarse to fine.
 
     The lattice points (i_1, ..., i_d) / (n_k - 1) whose indices are all kept by `_coarse_indices`
     are scored for every sequence under shared models (`_lattice_scores`); around each sequence's
     `coarse_top` best of them, the lattice points within stride - 1 indices along every parameter
     (a box of (2 stride - 1)^d, shifted inside the lattice at its faces) are scored under one model
-    per sequence, gathered from a table of every lattice point's model (`_lattice_models`) where
-    that has fewer models than the pairs (and at most `_TABLE_POINTS`), else `_candidate_scores`;
-    the best of these is the start. Stride 1, or a coarse
-    lattice and boxes that cost more than the whole lattice (`_OWN_MODEL_COST`), score the whole
-    lattice instead.
+    per sequence, gathered from `table` (`_lattice_models` of the whole lattice; built here where
+    `_start_plan` asks for one and none is given) or interpolated per pair (`_candidate_scores`);
+    the best of these is the start. Where `_start_plan` says the coarse-to-fine start does not pay,
+    the whole lattice is scored instead.
     """
-    points = np.asarray(_lattice_axes(phmm.n_params, lattice_points))
-    scale = np.maximum(points - 1, 1)
-    coarse = np.stack(np.meshgrid(*[_coarse_indices(n, coarse_stride) for n in points], indexing="ij"),
-                      -1).reshape(-1, phmm.n_params)  # (Mc, d) lattice indices
-    width = np.minimum(2 * coarse_stride - 1, points)  # (d,) the box around a coarse point
-    top = min(coarse_top, coarse.shape[0])
-    if coarse_stride == 1 or coarse.shape[0] + _OWN_MODEL_COST * top * np.prod(width) >= np.prod(points):
+    plan = _start_plan(phmm.n_params, lattice_points, coarse_stride, coarse_top, X.shape[0])
+    if plan.method == "lattice":
         lattice = start_lattice(phmm.n_params, lattice_points)
         return lattice[jnp.argmax(_lattice_scores(phmm, X, lengths, lattice), axis=0)]
-    scores = _lattice_scores(phmm, X, lengths, jnp.asarray(coarse / scale))  # (Mc, B)
-    best = jax.lax.top_k(scores.T, top)[1]  # (B, k)
-    box = np.stack(np.meshgrid(*[np.arange(w) for w in width], indexing="ij"), -1).reshape(-1, phmm.n_params)
-    first = jnp.clip(jnp.asarray(coarse)[best] - (coarse_stride - 1), 0, points - width)  # (B, k, d)
+    scale = np.maximum(plan.points - 1, 1)
+    scores = _lattice_scores(phmm, X, lengths, jnp.asarray(plan.coarse / scale))  # (Mc, B)
+    best = jax.lax.top_k(scores.T, plan.top)[1]  # (B, k)
+    box = np.stack(np.meshgrid(*[np.arange(w) for w in plan.width], indexing="ij"), -1).reshape(-1, phmm.n_params)
+    first = jnp.clip(jnp.asarray(plan.coarse)[best] - (coarse_stride - 1), 0, plan.points - plan.width)  # (B, k, d)
     index = (first[:, :, None] + box).reshape(X.shape[0], -1, phmm.n_params)  # (B, P, d) lattice indices
     candidates = index / scale
-    if np.prod(points) <= min(index.shape[0] * index.shape[1], _TABLE_POINTS):  # fewer models than pairs
-        strides = np.cumprod((1,) + tuple(points[::-1]))[-2::-1]  # C order, as `start_lattice`
-        table = _lattice_models(phmm, start_lattice(phmm.n_params, lattice_points))
+    if plan.method == "table":
+        if table is None:
+            table = _lattice_models(phmm, start_lattice(phmm.n_params, lattice_points))
+        strides = np.cumprod((1,) + tuple(plan.points[::-1]))[-2::-1]  # C order, as `start_lattice`
         values = _table_scores(phmm, X, lengths, table, jnp.sum(index * strides, axis=-1).T)  # (P, B)
     else:
         values = _candidate_scores(phmm, X, lengths, jnp.swapaxes(candidates, 0, 1))  # (P, B)
@@ -527,14 +555,19 @@ def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, 
     Returns:
         (φ (B, d), log-likelihood at φ (B,)).
     """
+    chunks = (_blocks(X, chunk_size), _blocks(lengths, chunk_size))
+    # The lattice's model table (if the start reads one) depends on the PHMM only: built once for all chunks.
+    plan = _start_plan(phmm.n_params, lattice_points, coarse_stride, coarse_top, chunks[0].shape[1])
+    table = (_lattice_models(phmm, start_lattice(phmm.n_params, lattice_points)) if plan.method == "table"
+             else None)
     search = lambda chunk: _search_chunk(phmm, *chunk, epsilon, n_steps, lattice_points, face_steps,  # noqa: E731
-                                         coarse_stride, coarse_top)
-    phi, loglik = jax.lax.map(search, (_blocks(X, chunk_size), _blocks(lengths, chunk_size)))
+                                         coarse_stride, coarse_top, table)
+    phi, loglik = jax.lax.map(search, chunks)
     return phi.reshape(-1, phmm.n_params)[:X.shape[0]], loglik.reshape(-1)[:X.shape[0]]
 
 
 def _search_chunk(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points, face_steps: int, coarse_stride: int,
-                  coarse_top: int):
+                  coarse_top: int, table):
     """`search_parameters` on one chunk of sequences (B, T, D).
 
     Sequence b's log-likelihood depends on φ_b only, so the gradient of the batch sum is every
@@ -603,7 +636,7 @@ def _search_chunk(phmm: PHMM, X, lengths, epsilon, n_steps: int, lattice_points,
         restart = jax.lax.cond(index + 1 < n_rounds, probe_restart, lambda p, _: p, phi, loglik)
         return restart, phi, loglik
 
-    start = _start_points(phmm, X, lengths, lattice_points, coarse_stride, coarse_top)
+    start = _start_points(phmm, X, lengths, lattice_points, coarse_stride, coarse_top, table)
     init = (start, start, jnp.full(start.shape[0], -jnp.inf, start.dtype))
     _, phi, loglik = jax.lax.fori_loop(0, n_rounds, climb, init)
     return phi, loglik
