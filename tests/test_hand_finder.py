@@ -56,6 +56,16 @@ def test_boxes_in_input_pixels_at_a_smaller_working_resolution(model):
     np.testing.assert_allclose(np.asarray(res.boxes)[0, 0], [40, 130, 120, 190], atol=2)
 
 
+def test_saturated_frame_resized_with_rules(model):
+    # a white (255) wall around the hand: the working-size resize must stay within [0, 255], which the
+    # skin rules check; the box is the blob's, as at full size (the rules are all off)
+    frame = np.full((240, 320, 3), 255, np.uint8)
+    frame[40:120, 130:190] = SKIN_RGB
+    res = hog_jax.find_hands(model, frame[None], hog_jax.HandOptions(max_side=160, rules=hog_jax.SkinRules()))
+    assert bool(res.found[0, 0])
+    np.testing.assert_allclose(np.asarray(res.boxes)[0, 0], [40, 130, 120, 190], atol=2)
+
+
 @pytest.mark.parametrize("field, value", [("max_hands", 0), ("entry_edges", ("up",)), ("min_score", 2.0),
                                           ("hand_length", 0.0), ("min_area", 1.0), ("max_side", 8),
                                           ("adapt", 1), ("rules", "none")])

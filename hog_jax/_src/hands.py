@@ -157,7 +157,8 @@ def _work_size(H: int, W: int, max_side: int) -> tuple[int, int]:
 def _resize(frames, size: tuple[int, int]):
     if frames.shape[1:3] == size:
         return frames
-    return jax.image.resize(frames, (frames.shape[0], *size, 3), "linear", antialias=True)
+    # rounding lifts a saturated pixel a hair above 255, which the skin rules' range check refuses
+    return jnp.clip(jax.image.resize(frames, (frames.shape[0], *size, 3), "linear", antialias=True), 0.0, 255.0)
 
 
 @jax.jit
