@@ -17,9 +17,11 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    batched `solve_ik`, at that yaw and at turns of `YAW_STEPS_DEG` (up to 90 degrees) from it, each
    level and then tilted downwards by `TILT_STEPS_DEG` (the grasp study's orientation error), and
    with MuJoCo's collision detection at the IK answers (no contact with another object, none of the
-   arm with the table): the first plan for which the arm reaches all seven cleanly is executed
-   (`TaskResult.yaw_deg`, `tilt_deg`: the imitation as close as the arm allows); none -> the result fails at
-   "ik_unreachable" without simulating (so does a place off the table).
+   arm with the table); of the plans for which the arm reaches all seven cleanly, the first whose whole
+   path the tracking IK below follows through them (`path_tracks`: its warm-started solves from home
+   along the approach, the descent, the grasp, lift, carry, lowering and retract, no physics) is executed,
+   else the first of them (`TaskResult.yaw_deg`, `tilt_deg`: the imitation as close as the arm allows);
+   none -> the result fails at "ik_unreachable" without simulating (so does a place off the table).
 2. Approach: the palm rises `CLEAR_M` from home (whose fingers point down at the table), then
    follows the caller's path (`approach_path` (T, 3) world, e.g. a PHMM-synthesised reach, retargeted
    to the arm by `retarget_path`), else a straight line, to `ABOVE_M` above the pre-grasp pose, at `MOVE_SPEED_M_S` (arc
@@ -45,8 +47,8 @@ What it does, in order (`run_task(spec)` -> `TaskResult`):
    preshape; retract along the approach direction and up (volar grasps first centre the palm on the
    object sideways, so that the open fingers clear it).
 
-Every palm pose becomes arm joint targets by tracking IK: one damped-least-squares solve per control
-step (`solve_ik`, one start, warm-started at the last target), sent to the arm's position servos;
+Every palm pose becomes arm joint targets by tracking IK (`track_ik`): one damped-least-squares solve per
+control step (`solve_ik`, one start, warm-started at the last target), sent to the arm's position servos;
 the fingers' targets go to the hand's servos.
 
 Success (`TaskResult.success`): the handled object ends within `PLACE_TOL_M` of the place in x-y,
@@ -83,24 +85,21 @@ from sim._src.grasp_strategy import CONTROL_DT_S, DONE, HORIZON_S, LIFT, initial
 from sim._src.manipulator import HOME_Q
 from sim._src.manipulator_ik import forward_kinematics
 from sim._src.robot_hands import HAND_NAMES
-from sim._src.task_motion import (held_links, hold, min_jerk, move, object_tilt, ramp_fingers,
-    retarget_path, task_sim, tilt_correction, upright_axis)
-from sim._src.task_plan import (ABOVE_M, RETRACT_M, RETRACT_UP_M, TaskOptions, TaskSpec, check_spec,
-    grasp_controller, on_table, reachable_plan, task_scene)
+from sim._src.task_motion import (held_links, hold, move, object_tilt, ramp_fingers, task_sim, tilt_correction,
+    upright_axis)
+from sim._src.task_plan import (ABOVE_M, CARRY_SPEED_M_S, LOWER_SPEED_M_S, MOVE_SPEED_M_S, RETRACT_M, RETRACT_UP_M,
+    TaskOptions, TaskSpec, approach_points, check_spec, grasp_controller, min_jerk, on_table, reachable_plan,
+    task_scene)
 
 __all__ = ["STAGES", "TaskOptions", "TaskResult", "TaskSpec", "run_task", "task_sweep", "task_table"]
 
 STAGES: tuple[str, ...] = ("ik_unreachable", "approach", "grasp", "lift", "carry", "place")
 PLACE_TOL_M = 0.05
 UPRIGHT_TOL_DEG = 20.0
-MOVE_SPEED_M_S = 0.3         # mean palm speed of the free approach and of the retract (min-jerk timing)
-CARRY_SPEED_M_S = 0.15       # mean palm speed while carrying
-LOWER_SPEED_M_S = 0.05       # palm speed while lowering onto the table
 TOUCH_M, TOUCH_SPEED_M_S = 0.02, 0.01  # ... and while the object is within TOUCH_M of standing on it
 RELEASE_S, OPEN_S, SETTLE_S = 0.3, 0.6, 0.3
 MAX_STRAIGHTEN_DEG = 25.0    # a larger tilt in the grasp means the object pivots there: not turned
 STRAIGHTEN_S = 0.4           # turning the held object upright above the place
-CLEAR_M = 0.15               # the palm first rises this far from home (its fingers point down at the table)
 GRIP_MARGIN = 0.2            # rad: carry and place with the fingers' targets this far past where they hold
 APPROACH_TOL_M = 0.02        # the palm within this of the pre-grasp pose after the approach
 
@@ -178,7 +177,7 @@ def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: in
 
     sim_s, wall_s = {}, {}
     clock = time.perf_counter()
-    plan, reachable = reachable_plan(spec, scene, seed, mapping)
+    plan, reachable = reachable_plan(spec, scene, seed, mapping, path)
     wall_s["plan"], sim_s["plan"] = time.perf_counter() - clock, 0.0
     centre = plan.obj_centre
     if not (reachable and on_table(spec.place_xy)):
@@ -216,11 +215,7 @@ def run_task(spec: TaskSpec, *, approach_path: ArrayLike | None = None, seed: in
         home_pos, home_rot = (np.asarray(a, float) for a in forward_kinematics(scene.chain, HOME_Q))
         pre = params.start[0].astype(float)
         above = pre + [0.0, 0.0, ABOVE_M]
-        clear = home_pos + [0.0, 0.0, CLEAR_M]
-        points = np.concatenate([home_pos[None], clear[None]]
-                                + ([retarget_path(path, clear, above)[1:-1]] if path is not None else [])
-                                + [above[None]])
-        move(sim, points, home_rot, plan.rot, open_, MOVE_SPEED_M_S)
+        move(sim, approach_points(home_pos, above, path), home_rot, plan.rot, open_, MOVE_SPEED_M_S)
         move(sim, np.stack([above, pre]), plan.rot, plan.rot, open_, MOVE_SPEED_M_S / 2)
         hold(sim, pre, plan.rot, open_, SETTLE_S)
         if np.linalg.norm(sim.palm() - pre) > APPROACH_TOL_M:

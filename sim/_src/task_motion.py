@@ -1,7 +1,7 @@
 """The motion half of the robot's task controller (`run_task` runs it): one MuJoCo world stepped by
 control periods (`TaskSim`: palm pose -> tracking IK -> the arm's servo targets, the grasp study's
-sensors read per period; `MjxTaskSim`: the same with the physics on MJX-JAX), min-jerk moves along
-polylines, holds, and the geometry of standing a held object upright."""
+sensors read per period; `MjxTaskSim`: the same with the physics on MJX-JAX), moves along the palm's
+paths (`sim._src.task_plan.pose_path`), holds, and the geometry of standing a held object upright."""
 from __future__ import annotations
 
 import functools
@@ -13,31 +13,23 @@ import mujoco
 import numpy as np
 from mujoco import mjx
 from numpy.typing import ArrayLike
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from sim._src.grasp_rollout import SUBSTEPS, peak_touch
 from sim._src.mjx_compat import contact_distances, contact_geoms
 from sim._src.rollout import mjx_step
 from sim._src.grasp_strategy import CONTROL_DT_S
 from sim._src.manipulator import HOME_Q, manipulator_qpos
-from sim._src.manipulator_ik import solve_ik
 from sim._src.render import setup_rendering
 from sim._src.robot_hands import SceneLayout
-from sim._src.task_plan import TaskOptions, TaskScene, TaskSpec, task_scene
-
-TRACK_ITERATIONS = 10        # DLS steps per control step of the tracking IK
-
-
-def min_jerk(n: int) -> np.ndarray:
-    s = np.linspace(0.0, 1.0, max(n, 1) + 1)[1:]
-    return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
+from sim._src.task_plan import TaskOptions, TaskScene, TaskSpec, pose_path, task_scene, track_ik
 
 
 class TaskSim:
     """One native MuJoCo world of a task, stepped by control periods: palm pose -> tracking IK -> arm servos.
 
-    Every palm pose becomes arm joint targets by one damped-least-squares solve per control step
-    (`solve_ik`, one start, warm-started at the last target); the grasp study's sensors are read per
+    Every palm pose becomes arm joint targets by one step of the tracking IK (`track_ik`: damped least
+    squares, one start, warm-started at the last target); the grasp study's sensors are read per
     control period (`sim.grasping.peak_touch`). The arm starts at `HOME_Q`.
 
     Args:
@@ -85,9 +77,7 @@ class TaskSim:
             rot: (3, 3) its rotation.
             fingers: (D,) the hand's targets.
         """
-        ik = solve_ik(self.scene.chain, pos[None], rot[None], self.q_cmd[None], n_restarts=1, rounds=1,
-                      iterations=TRACK_ITERATIONS)
-        self.q_cmd = np.asarray(ik.q[0], float)
+        self.q_cmd = np.asarray(track_ik(self.scene.chain, self.q_cmd[None], pos[None], rot[None]).q[0], float)
         self._step(fingers)
 
     def _step(self, fingers: np.ndarray) -> None:
@@ -304,51 +294,8 @@ def _start_qpos(scene: TaskScene, open_: np.ndarray) -> np.ndarray:
     return manipulator_qpos(scene.model, scene.arm, HOME_Q, open_)
 
 
-def _polyline(points: np.ndarray, speed: float) -> np.ndarray:
-    """(N, 3) positions per control step along the polyline `points` (P, 3) at mean speed `speed`,
-    min-jerk in arc length."""
-    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    arc = np.concatenate([[0.0], np.cumsum(seg)])
-    if arc[-1] < 1e-6:
-        return points[-1:]
-    n = max(int(np.ceil(arc[-1] / speed / CONTROL_DT_S)), 5)
-    s = min_jerk(n) * arc[-1]
-    return np.stack([np.interp(s, arc, points[:, i]) for i in range(3)], -1)
-
-
-def retarget_path(path: ArrayLike, start: ArrayLike, end: ArrayLike) -> np.ndarray:
-    """A demonstrated movement moved onto the robot's own start and end (PHMM synthesis -> robot).
-
-    The path is turned about the vertical so that its horizontal chord points along the robot's,
-    shifted to `start`, and what is then left between its end and `end` spread over it in proportion
-    to arc length. The vertical profile (the lift over the table) and the sideways bulge relative to
-    the chord are kept; the endpoints are the robot's exactly.
-
-    Args:
-        path: (T, 3) a demonstrated movement (world m, e.g. a PHMM-synthesised reach).
-        start: (3,) the robot's start.
-        end: (3,) the robot's end.
-
-    Returns:
-        (T, 3) the retargeted path.
-    """
-    path = np.asarray(path, np.float64)
-    start, end = np.asarray(start, np.float64), np.asarray(end, np.float64)
-    rel = path - path[0]
-    heading = lambda v: np.arctan2(v[1], v[0]) if np.hypot(v[0], v[1]) > 1e-6 else 0.0
-    turn = heading(end - start) - heading(rel[-1])
-    c, s = np.cos(turn), np.sin(turn)
-    turned = rel @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
-    frac = arc / arc[-1] if arc[-1] > 1e-9 else np.linspace(0.0, 1.0, len(path))
-    return start + turned + frac[:, None] * (end - start - turned[-1])
-
-
 def move(sim: TaskSim, points: np.ndarray, rot_from: np.ndarray, rot_to: np.ndarray, fingers, speed: float):
-    path = _polyline(points, speed)
-    slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([rot_from, rot_to])))
-    rots = slerp(np.linspace(0.0, 1.0, len(path) + 1)[1:]).as_matrix()
-    for p, r in zip(path, rots):
+    for p, r in zip(*pose_path(points, rot_from, rot_to, speed)):
         sim.step(p, r, fingers)
 
 

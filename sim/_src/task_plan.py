@@ -1,8 +1,9 @@
 """The planning half of the robot's task controller (`run_task` runs it): the task (`TaskSpec`), its
 options (`TaskOptions`) and their checks, the manipulator scene with the grasp study's sensors
-(`task_scene`), the grasp controller jitted for it, and the MAP §III plan turned about the vertical to
-imitate the human hand and checked for reach (batched IK) and collisions at its key poses
-(`reachable_plan`)."""
+(`task_scene`), the grasp controller jitted for it, the palm's paths (`pose_path`, `approach_points`)
+and the arm's tracking IK that follows them (`track_ik`), and the MAP §III plan turned about the vertical
+to imitate the human hand and checked for reach (batched IK, then the tracking IK along the task's path)
+and collisions at its key poses (`reachable_plan`)."""
 from __future__ import annotations
 
 import functools
@@ -13,22 +14,29 @@ from typing import Any, NamedTuple
 import jax
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation, Slerp
 
 from lfd_common import as_array, check_choice, check_int, check_real, quat_to_matrix
 from sim._src.grasp_objects import GRASP_CLASSES, GRASP_OBJECTS, check_grasp_class
-from sim._src.grasp_strategy import (CONTROL_DT_S, MAPPINGS, PlanOptions, TrialParams, controller_step,
-    object_extent, plan_trials)
+from sim._src.grasp_strategy import (APPROACH_SPEED_M_S, CONTROL_DT_S, LIFT_SPEED_M_S, MAPPINGS, PlanOptions,
+    TrialParams, controller_step, object_extent, plan_trials)
 from sim._src.human_grasps import hand_pose_in_world
 from sim._src.manipulator import (BASE_POS, DEFAULT_OBJECT_XY, DEFAULT_OBJECTS, HOME_Q, manipulator_qpos,
     manipulator_scene_xml, scene_layout as manipulator_layout)
-from sim._src.manipulator_ik import ArmChain, arm_chain, solve_ik
+from sim._src.manipulator_ik import ArmChain, IKResult, arm_chain, forward_kinematics, solve_ik
 from sim._src.person_scene import TableSpec
 from sim._src.robot_hands import HAND_NAMES, SceneLayout, hand_spec
 
 HOLD_S = 0.3                 # the grasp controller's hold after its lift (its study holds 1 s)
 RETRACT_M, RETRACT_UP_M = 0.08, 0.06
 ABOVE_M = 0.12               # the approach ends with a vertical descent from this far above the pre-grasp
+CLEAR_M = 0.15               # the palm first rises this far from home (its fingers point down at the table)
+MOVE_SPEED_M_S = 0.3         # mean palm speed of the free approach and of the retract (min-jerk timing)
+CARRY_SPEED_M_S = 0.15       # mean palm speed while carrying
+LOWER_SPEED_M_S = 0.05       # palm speed while lowering onto the table
+TRACK_ITERATIONS = 10        # DLS steps per control step of the tracking IK
+REACH_TOL_M, REACH_TOL_RAD = 5e-3, 0.05  # a key pose counts as reached within these (plan's IK, tracking)
 TABLE = TableSpec()
 TASK_BACKENDS: tuple[str, ...] = ("native", "mjx-jax")
 
@@ -228,6 +236,86 @@ def on_table(xy: np.ndarray, margin: float = 0.03) -> bool:
     return (abs(x) <= TABLE.half_width - margin) and (TABLE.far_y + margin <= y <= TABLE.near_y - margin)
 
 
+# ---------------------------------------------------------------- the palm's paths and the tracking IK
+
+def min_jerk(n: int) -> np.ndarray:
+    """(max(n, 1),) the fractions of a min-jerk move reached after each of its n control steps (the last 1)."""
+    s = np.linspace(0.0, 1.0, max(n, 1) + 1)[1:]
+    return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
+
+
+def polyline(points: np.ndarray, speed: float) -> np.ndarray:
+    """(N, 3) positions per control step along the polyline `points` (P, 3) at mean speed `speed`,
+    min-jerk in arc length."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    if arc[-1] < 1e-6:
+        return points[-1:]
+    n = max(int(np.ceil(arc[-1] / speed / CONTROL_DT_S)), 5)
+    s = min_jerk(n) * arc[-1]
+    return np.stack([np.interp(s, arc, points[:, i]) for i in range(3)], -1)
+
+
+def pose_path(points: np.ndarray, rot_from: np.ndarray, rot_to: np.ndarray,
+              speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """The palm's poses per control step of a move along the polyline `points` (P, 3) at mean speed `speed`
+    (`polyline`), its rotation slerped from `rot_from` (3, 3) to `rot_to` (3, 3) in as many steps.
+
+    Returns:
+        (N, 3) positions and (N, 3, 3) rotations (world), the last ones `points[-1]` and `rot_to`.
+    """
+    path = polyline(points, speed)
+    slerp = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([rot_from, rot_to])))
+    return path, slerp(np.linspace(0.0, 1.0, len(path) + 1)[1:]).as_matrix()
+
+
+def retarget_path(path: ArrayLike, start: ArrayLike, end: ArrayLike) -> np.ndarray:
+    """A demonstrated movement moved onto the robot's own start and end (PHMM synthesis -> robot).
+
+    The path is turned about the vertical so that its horizontal chord points along the robot's,
+    shifted to `start`, and what is then left between its end and `end` spread over it in proportion
+    to arc length. The vertical profile (the lift over the table) and the sideways bulge relative to
+    the chord are kept; the endpoints are the robot's exactly.
+
+    Args:
+        path: (T, 3) a demonstrated movement (world m, e.g. a PHMM-synthesised reach).
+        start: (3,) the robot's start.
+        end: (3,) the robot's end.
+
+    Returns:
+        (T, 3) the retargeted path.
+    """
+    path = np.asarray(path, np.float64)
+    start, end = np.asarray(start, np.float64), np.asarray(end, np.float64)
+    rel = path - path[0]
+    heading = lambda v: np.arctan2(v[1], v[0]) if np.hypot(v[0], v[1]) > 1e-6 else 0.0
+    turn = heading(end - start) - heading(rel[-1])
+    c, s = np.cos(turn), np.sin(turn)
+    turned = rel @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    frac = arc / arc[-1] if arc[-1] > 1e-9 else np.linspace(0.0, 1.0, len(path))
+    return start + turned + frac[:, None] * (end - start - turned[-1])
+
+
+def approach_points(home_pos: np.ndarray, above: np.ndarray, path: np.ndarray | None) -> np.ndarray:
+    """(P, 3) the approach's polyline: the palm at home (3,), `CLEAR_M` above it, the demonstrated reach
+    `path` (T, 3) retargeted between there and `above` (3,) (`retarget_path`; None: a straight line), `above`."""
+    clear = home_pos + [0.0, 0.0, CLEAR_M]
+    middle = [retarget_path(path, clear, above)[1:-1]] if path is not None else []
+    return np.concatenate([home_pos[None], clear[None], *middle, above[None]])
+
+
+def track_ik(chain: ArmChain, q: np.ndarray, pos: np.ndarray, rot: np.ndarray) -> IKResult:
+    """One control step of the arm's tracking IK: `TRACK_ITERATIONS` damped-least-squares steps from the
+    last target q (B, K), one start (`solve_ik`), towards the palm poses pos (B, 3), rot (B, 3, 3).
+
+    Returns:
+        The `IKResult` (`reachable`: within `REACH_TOL_M` and `REACH_TOL_RAD`).
+    """
+    return solve_ik(chain, pos, rot, q, pos_tol=REACH_TOL_M, rot_tol=REACH_TOL_RAD, n_restarts=1, rounds=1,
+                    iterations=TRACK_ITERATIONS)
+
+
 # ---------------------------------------------------------------- planning
 
 def _rot_z(angle: float) -> np.ndarray:
@@ -284,11 +372,14 @@ def _plan(spec: TaskSpec, params: TrialParams, psi: float, yaw_deg: float, tilt_
     return TaskPlan(world, rot, goal - standoff * approach, centre, yaw_deg, tilt_deg)
 
 
-def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) -> tuple[TaskPlan, bool]:
+def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str,
+                   approach_path: np.ndarray | None = None) -> tuple[TaskPlan, bool]:
     """The plan of the first (tilt, yaw) in `TILT_STEPS_DEG` x `YAW_STEPS_DEG` (turns from the preferred
     yaw; the level approach at every yaw first) whose key poses (`key_poses`) the arm reaches (one batched
     IK call for all) without touching another object, or the table with anything but the hand
-    (`collides`); and whether there is one (else the level, preferred one)."""
+    (`collides`), and whose path the arm's tracking IK follows through all of them (`path_tracks`, along
+    `approach_path` (T, 3) or a straight approach); else the first clean one whose path does not track;
+    and whether there is a clean one (else the level, preferred one)."""
     n_tilt = len(TILT_STEPS_DEG)
     params, _ = plan_trials(spec.hand, [spec.grasp] * n_tilt, np.zeros((n_tilt, 2)), TILT_STEPS_DEG,
                             [spec.tactile] * n_tilt, [seed] * n_tilt, objects=[spec.objects[spec.target]] * n_tilt,
@@ -299,14 +390,17 @@ def reachable_plan(spec: TaskSpec, scene: TaskScene, seed: int, mapping: str) ->
     poses = np.stack([key_poses(p, spec.place_xy) for p in plans])          # (tilts x yaws, P, 3)
     n_plan, n_pose = poses.shape[:2]
     rots = np.repeat(np.stack([p.rot for p in plans]), n_pose, axis=0)
-    ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_plan * n_pose, 1)), pos_tol=5e-3,
-                  rot_tol=0.05)
+    ik = solve_ik(scene.chain, poses.reshape(-1, 3), rots, np.tile(HOME_Q, (n_plan * n_pose, 1)), pos_tol=REACH_TOL_M,
+                  rot_tol=REACH_TOL_RAD)
     ok = np.asarray(ik.reachable).reshape(n_plan, n_pose).all(1)
     q = np.asarray(ik.q, float).reshape(n_plan, n_pose, -1)
-    for k in np.flatnonzero(ok):
-        if not collides(scene, spec.target, q[k], plans[k].params):
-            return plans[k], True
-    return plans[0], False
+    clean = [k for k in np.flatnonzero(ok) if not collides(scene, spec.target, q[k], plans[k].params)]
+    if not clean:
+        return plans[0], False
+    # each key pose alone can be reachable where the controller's tracking IK, warm-started along the
+    # path, stops at a wrist limit (carrying, 6 cm short of the place): such a plan only as a last resort
+    tracked = next((k for k in clean if path_tracks(scene.chain, plans[k], spec.place_xy, approach_path)), clean[0])
+    return plans[tracked], True
 
 
 def collides(scene: TaskScene, target: int, q: np.ndarray, params: TrialParams) -> bool:
@@ -341,3 +435,38 @@ def key_poses(plan: TaskPlan, place_xy: np.ndarray) -> np.ndarray:
     retract = placed - RETRACT_M * a + [0.0, 0.0, RETRACT_UP_M]
     pre = plan.params.start[0]
     return np.stack([pre + [0.0, 0.0, ABOVE_M], pre, plan.grasp_palm, lift, carry, placed, retract])
+
+
+def path_tracks(chain: ArmChain, plan: TaskPlan, place_xy: np.ndarray, approach_path: np.ndarray | None) -> bool:
+    """Whether the tracking IK (`track_ik`, no physics), from `HOME_Q` along the task's nominal palm path
+    through the plan's key poses (`key_poses`) at the controller's speeds, reaches each of them.
+
+    The path: the approach (`approach_points`, the orientation slerped from home's to the plan's), the
+    descent onto the pre-grasp pose, the grasp controller's approach and lift, the carry, the lowering,
+    the retract. Each key pose alone can be reachable where the tracking stops at a joint limit on the way
+    (the arm arrives on another wrist branch than the pose needs).
+
+    Args:
+        chain: the arm's chain.
+        plan: the plan.
+        place_xy: (2,) the place (world m).
+        approach_path: (T, 3) the demonstrated reach (`run_task`'s `approach_path`), or None.
+
+    Returns:
+        True if every key pose is reached within `REACH_TOL_M` and `REACH_TOL_RAD`.
+    """
+    above, pre, grasp, lift, carry, placed, retract = key_poses(plan, place_xy)
+    home_pos, home_rot = (np.asarray(a, float) for a in forward_kinematics(chain, HOME_Q))
+    rot = plan.rot
+    legs = [(approach_points(home_pos, above, approach_path), home_rot, MOVE_SPEED_M_S),
+            (np.stack([above, pre]), rot, MOVE_SPEED_M_S / 2), (np.stack([pre, grasp]), rot, APPROACH_SPEED_M_S),
+            (np.stack([grasp, lift]), rot, LIFT_SPEED_M_S), (np.stack([lift, carry]), rot, CARRY_SPEED_M_S),
+            (np.stack([carry, placed]), rot, LOWER_SPEED_M_S), (np.stack([placed, retract]), rot, MOVE_SPEED_M_S / 2)]
+    q = HOME_Q[None].astype(float)
+    for points, rot_from, speed in legs:
+        for p, r in zip(*pose_path(points, rot_from, rot, speed)):
+            ik = track_ik(chain, q, p[None], r[None])
+            q = np.asarray(ik.q, float)
+        if not bool(ik.reachable[0]):
+            return False
+    return True

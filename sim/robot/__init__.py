@@ -32,8 +32,8 @@ from sim._src.manipulator_ik import ArmChain, IKResult, arm_chain, forward_kinem
 from sim._src.person_scene import TableSpec
 from sim._src.robot_arm import FOREARM_M, SHOULDER_POS, UPPER_ARM_M, Playback, arm_scene_xml, play
 from sim._src.task_controller import PLACE_TOL_M, STAGES, TaskResult, run_task, task_sweep, task_table
-from sim._src.task_motion import MjxTaskSim, TaskSim, retarget_path
-from sim._src.task_plan import TASK_BACKENDS, TaskOptions, TaskScene, TaskSpec, task_scene
+from sim._src.task_motion import MjxTaskSim, TaskSim
+from sim._src.task_plan import TASK_BACKENDS, TaskOptions, TaskScene, TaskSpec, retarget_path, task_scene
 
 __all__ = [
     "BASE_POS", "DEFAULT_OBJECTS", "FOREARM_M", "HOME_Q", "JOINT_RANGE", "PLACE_TOL_M", "SHOULDER_M",
