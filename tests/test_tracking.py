@@ -416,3 +416,24 @@ def test_side_rules_wait_for_the_hand_beyond_the_face_s_left():
     assert np.linalg.norm(leftmost.position[0, 12:, 1] - hand[12:], axis=-1).min() > 10  # the failure it fixes
     with pytest.raises(ValueError, match=r"init\[0\]"):
         track(blobs, ("left_of_first", "top"))
+
+
+def test_a_coasting_track_takes_the_hand_that_reappears_beyond_its_gate():
+    """A hand rising from below the table shows first as a few pixels, is missed for a frame, then shows
+    whole 13 px away: the track acquired on the few pixels (no velocity, a small ellipse) must take it
+    then (its gate grows with the frames since its last measurement), not coast on the few pixels'
+    place until lost (the imitation loop's hand frozen beside the true one)."""
+    masks = np.zeros((4, T, H, W), bool)
+    hand = np.stack([22.0 + np.maximum(t - 8, 0), np.full(T, 30.0)], -1)  # whole from frame 8, moving right
+    for i in range(T):
+        masks[:, i] = disc([36, 14], 6) | disc([54, 36], 3)  # the face and the other hand
+        masks[:, i] |= disc([14, 40], 1) if i == 6 else disc(hand[i], 3) if i >= 8 else False
+    blobs = connected_blobs(masks, max_blobs=K)
+    options = TrackOptions(alpha=ALPHA, beta=BETA, min_init=3)
+    tr = host(track(blobs, ("top", "left_of_first", "right_of_first"), options))
+    assert tr.observed[0, 6, 1] and not tr.observed[0, 7, 1] and tr.blob[0, 6, 1] >= 0  # acquired on the few pixels
+    np.testing.assert_allclose(tr.position[0, 6, 1], [14.0, 40.0], atol=1e-4)
+    assert tr.observed[0, 8:, 1].all() and not tr.lost[0, 6:, 1].any()
+    np.testing.assert_allclose(tr.position[0, 8, 1], hand[8], atol=1e-4)  # taken as it reappears
+    assert np.linalg.norm(tr.position[0, 8:, 1] - hand[8:], axis=-1).max() < 1.5
+    np.testing.assert_allclose(tr.position[0, 6:, 0], np.broadcast_to([36.0, 14.0], (T - 6, 2)), atol=1e-4)  # face

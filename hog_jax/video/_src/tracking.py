@@ -26,12 +26,15 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
    of the face, or gone beside it) it is *concealed*: it coasts with its velocity damped by
    `merge_damping` per frame (it most likely stops there), and after `n_hidden` frames it is lost;
 5. acquire: once a frame has had `min_init` blobs, every target not tracked (never acquired, lost with
-   `reacquire`, or concealed) takes, in target order, a blob no observed target took: a never-acquired
+   `reacquire`, concealed, or coasting) takes, in target order, a blob no observed target took: a never-acquired
    target by its `init` rule ("top" highest centroid, "bottom", "left", "right", "largest";
    "left_of_first" / "right_of_first": the leftmost / rightmost of the blobs beyond that side of
    target 0's ellipse (its centre -/+ 2 sigma along x), none while target 0 is not tracked), the others
-   the nearest to their last position (a concealed one only within twice its gate). Skin: init ("top", "left_of_first", "right_of_first")
-   makes target 0 the face (the highest skin blob), target 1 the blob furthest left in the image and
+   the nearest to their last position (a concealed one only within twice its gate, a coasting one within its
+   gate times 1 + the frames since its last measurement: a constant-velocity prediction's error grows with
+   them, and a track acquired on the first pixels of a rising hand, with no velocity and a small ellipse,
+   would otherwise coast until lost while the hand moves on beside it). Skin: init ("top", "left_of_first",
+   "right_of_first") makes target 0 the face (the highest skin blob), target 1 the blob furthest left in the image and
    left of the face (the right hand of a person facing the camera) and target 2 the furthest right of
    the face (the other hand). The side matters where the right hand is out of view when tracking
    starts (below the table) and the other arm shows as two blobs (hand and bare forearm): "left" would
@@ -327,6 +330,7 @@ def _step(opts: _Options, state: TrackState, frame):
     velocity = jnp.where(gone[:, None], 0.0, velocity)  # lost: stop, don't drift
 
     # acquisition of untracked targets from blobs no tracked target took
+    coasting = tracked & ~gone & ~observed & ~concealed
     started = state.started | (jnp.sum(valid) >= opts.min_init)
     free = valid & ~jnp.any(observed[:, None] & (j[:, None] == jnp.arange(K)[None]), axis=0)
     x = blob_centroid[:, 0]
@@ -345,12 +349,15 @@ def _step(opts: _Options, state: TrackState, frame):
                              jnp.where(first_there & (x < first_x - half_width), x, jnp.inf),
                              jnp.where(first_there & (x > first_x + half_width), -x, jnp.inf)])  # INIT_RULES order
         rule = jnp.sum(jnp.where((jnp.arange(len(INIT_RULES)) == opts.rules[m])[:, None], by_rule, 0.0), axis=0)
-        # a concealed target takes a free blob only near it (twice its gate): the hand leaving the face
+        # a concealed target takes a free blob only near it (twice its gate): the hand leaving the face; a
+        # coasting one within its gate times 1 + the frames since its last measurement (its prediction's error
+        # grows with them; a fresh track's velocity is unknown, and a fast hand leaves a small blob's gate)
         allowed = free & (~concealed[m] | (nearest[m] <= 4.0 * opts.gate2))
+        allowed = allowed & (~coasting[m] | (nearest[m] <= opts.gate2 * (1.0 + missed[m]) ** 2))
         allowed = allowed & (state.acquired[m] | jnp.isfinite(rule))
         score = jnp.where(allowed, jnp.where(state.acquired[m], dist, rule), jnp.inf)
         k.append(jnp.argmin(score))
-        seeking = (~tracked[m] & (~state.acquired[m] | opts.reacquire)) | concealed[m]
+        seeking = (~tracked[m] & (~state.acquired[m] | opts.reacquire)) | concealed[m] | coasting[m]
         fresh.append(seeking & started & jnp.any(allowed))
         free = free & ~(fresh[m] & (jnp.arange(K) == k[m]))
     fresh, k = jnp.stack(fresh), jnp.stack(k)
