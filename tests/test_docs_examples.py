@@ -89,6 +89,12 @@ def test_results_pages_come_from_the_runs_files(tmp_path):
     reference = "issue" + " 6"  # a tracker's reference in a report, which the page drops
     (run / "report.md").write_text(f"# Table-top ({reference})\n\n![surface](surface.png)\n\n"
                                    "| a | b |\n|---|---|\n| 1 | 2 |\n")
+    # a later run of another preset that did not measure the row's figure: the row keeps the paper run's
+    other = tmp_path / "runs" / "tabletop_other"
+    other.mkdir()
+    (other / "config.json").write_text(json.dumps({"experiment": "phmm_tabletop", "preset": "paper"}))
+    (other / "metrics.json").write_text(json.dumps({"param_error_cm_inner": 1.5}))
+    (other / "run.json").write_text(json.dumps({"argv": ["--preset", "paper"], "started_utc": "2031-01-01T00:00:00+00:00"}))
     bench = tmp_path / "runs" / "bench"
     bench.mkdir()
     (bench / "config.json").write_text(json.dumps({"experiment": "bench.bench_hmm", "preset": "quick"}))
