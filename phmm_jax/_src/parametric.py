@@ -480,13 +480,17 @@ def _start_points(phmm: PHMM, X, lengths, lattice_points, coarse_stride: int, co
     index = (first[:, :, None] + box).reshape(X.shape[0], -1, phmm.n_params)  # (B, P, d) lattice indices
     candidates = index / scale
     if plan.method == "table":
-        if table is None:
-            table = _lattice_models(phmm, start_lattice(phmm.n_params, lattice_points))
+        table = _start_table(phmm, lattice_points, plan) if table is None else table
         strides = np.cumprod((1,) + tuple(plan.points[::-1]))[-2::-1]  # C order, as `start_lattice`
         values = _table_scores(phmm, X, lengths, table, jnp.sum(index * strides, axis=-1).T)  # (P, B)
     else:
         values = _candidate_scores(phmm, X, lengths, jnp.swapaxes(candidates, 0, 1))  # (P, B)
     return candidates[jnp.arange(X.shape[0]), jnp.argmax(values, axis=0)]
+
+
+def _start_table(phmm: PHMM, lattice_points, plan: _StartPlan):
+    """The whole start lattice's `_lattice_models` where `plan` reads a table, else None."""
+    return _lattice_models(phmm, start_lattice(phmm.n_params, lattice_points)) if plan.method == "table" else None
 
 
 def _lattice_models(phmm: PHMM, lattice: Float[Array, "M d"]):
@@ -558,8 +562,7 @@ def search_parameters(phmm: PHMM, X: Float[Array, "B T D"], lengths: Int[Array, 
     chunks = (_blocks(X, chunk_size), _blocks(lengths, chunk_size))
     # The lattice's model table (if the start reads one) depends on the PHMM only: built once for all chunks.
     plan = _start_plan(phmm.n_params, lattice_points, coarse_stride, coarse_top, chunks[0].shape[1])
-    table = (_lattice_models(phmm, start_lattice(phmm.n_params, lattice_points)) if plan.method == "table"
-             else None)
+    table = _start_table(phmm, lattice_points, plan)
     search = lambda chunk: _search_chunk(phmm, *chunk, epsilon, n_steps, lattice_points, face_steps,  # noqa: E731
                                          coarse_stride, coarse_top, table)
     phi, loglik = jax.lax.map(search, chunks)
