@@ -8,6 +8,7 @@ quick preset (tracker offset, noise, threshold) are fixed here instead of re-run
 import numpy as np
 import pytest
 
+import phmm_jax
 import sim
 import sim.robot
 from experiments.imitation import Config, Demo, PRESETS
@@ -55,10 +56,12 @@ def test_robot_fetches_the_recognised_object(loop):
     reach = im.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target], area=pl.AREA)  # the approach's shape
     assert reach.ndim == 2 and reach.shape[1] == 3 and len(reach) >= 10 and np.isfinite(reach).all()
     c = phmms[pl.REACH].config  # the reach PHMM's own mean movement gives its target back (PHMM eq. 3)
-    xy = im.reach_target(phmms[pl.REACH], im.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target],
-                                                                max(c.min_length, c.max_length // 3), pl.AREA),
-                         pl.AREA)
+    short = im.synthesised_reach(phmms[pl.REACH], spec.object_xy[spec.target], max(c.min_length, c.max_length // 3),
+                                 pl.AREA)
+    xy = im.reach_target(phmms[pl.REACH], short, pl.AREA)
     assert xy is not None and np.linalg.norm(xy - spec.object_xy[spec.target]) < 0.05
+    unpadded = phmm_jax.recognize([phmms[pl.REACH]], short[None], [len(short)])  # the padding changes nothing
+    assert np.allclose(xy, im.phi_to_xy(np.asarray(unpadded.phi)[0, 0].astype(float), pl.AREA), atol=1e-3)
     assert im.reach_target(phmms[pl.REACH], reach[:1]) is None  # shorter than any path: flagged
     res = st.robot_task(CFG, DEMO, r, phmms)
     # this demonstration is one the robot completes: any failed stage (named in the message) fails the test

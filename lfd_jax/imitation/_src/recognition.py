@@ -89,6 +89,12 @@ def reach_segment(x: np.ndarray) -> np.ndarray:
     return x[: g + 1]
 
 
+def _padded(segment: np.ndarray, length: int) -> np.ndarray:
+    """(L, D) `segment` repeated at its last frame to (length, D): one compiled recognition for every
+    segment length (the recognition's `lengths` mask the repeats out)."""
+    return np.concatenate([segment, np.repeat(segment[-1:], length - len(segment), axis=0)])
+
+
 def reach_target(reach_phmm: P.PHMM, segment: np.ndarray, area: TableArea = TableArea()) -> np.ndarray | None:
     """The target of a reach by the reach PHMM (PHMM eq. 3, Humanoids §III).
 
@@ -103,7 +109,7 @@ def reach_target(reach_phmm: P.PHMM, segment: np.ndarray, area: TableArea = Tabl
     c = reach_phmm.config
     if not c.min_length <= len(segment) <= c.max_length:
         return None
-    res = P.recognize([reach_phmm], segment[None], [len(segment)])
+    res = P.recognize([reach_phmm], _padded(segment, c.max_length)[None], [len(segment)])
     return phi_to_xy(np.asarray(res.phi)[0, 0].astype(float), area)
 
 
@@ -173,8 +179,7 @@ def movement(rec_online, stream: np.ndarray, merge_gap: int, area: TableArea = T
     if len(segment) > longest:  # longer than any path: the detector's longest event stands
         i = ok[np.argmax(ends - starts)]
         return KINDS[int(events.label[i])], phi_to_xy(np.asarray(events.phi[i], float), area), int(starts.max()), int(e)
-    padded = np.concatenate([segment, np.repeat(segment[-1:], longest - len(segment), axis=0)])
-    res = P.recognize(list(rec_online.phmms), padded[None], [len(segment)])
+    res = P.recognize(list(rec_online.phmms), _padded(segment, longest)[None], [len(segment)])
     loglik = np.asarray(res.loglik)[0]
     k = int(np.argmax(np.where(np.isfinite(loglik), loglik, -np.inf)))
     return KINDS[k], phi_to_xy(np.asarray(res.phi)[0, k].astype(float), area), s, e
