@@ -95,6 +95,12 @@ def test_results_pages_come_from_the_runs_files(tmp_path):
     (other / "config.json").write_text(json.dumps({"experiment": "phmm_tabletop", "preset": "paper"}))
     (other / "metrics.json").write_text(json.dumps({"param_error_cm_inner": 1.5}))
     (other / "run.json").write_text(json.dumps({"argv": ["--preset", "paper"], "started_utc": "2031-01-01T00:00:00+00:00"}))
+    # the paper method's GRASP row never shows the best preset's run (its own row does)
+    best = tmp_path / "runs" / "grasp_best"
+    best.mkdir()
+    (best / "config.json").write_text(json.dumps({"experiment": "grasp_recognition", "preset": "best"}))
+    (best / "metrics.json").write_text(json.dumps({"accuracy_X": 0.778, "accuracy_Xp": 0.917, "accuracy_Xpp": 0.917}))
+    (best / "run.json").write_text(json.dumps({"argv": ["--preset", "best"], "started_utc": "2031-01-01T00:00:00+00:00"}))
     bench = tmp_path / "runs" / "bench"
     bench.mkdir()
     (bench / "config.json").write_text(json.dumps({"experiment": "bench.bench_hmm", "preset": "quick"}))
@@ -105,6 +111,8 @@ def test_results_pages_come_from_the_runs_files(tmp_path):
     assert site_results.main([str(tmp_path / "runs"), "--docs", str(tmp_path / "docs"), "--readme", str(readme)]) == 0
     results = (tmp_path / "docs" / "results.md").read_text()
     assert "| ≈ 1.8 cm | 2.42 cm |" in results
+    assert "| grasp class on X / X′ / X″ | 61 / 71 / 75 % | not in these runs |" in results
+    assert "| grasp class on X / X′ / X″, best preset | 61 / 71 / 75 % | 77.8 / 91.7 / 91.7 % |" in results
     assert "`python -m experiments.phmm_tabletop --preset paper --out OUT`" in results
     assert "lfd-jax 9.9.9; started 2030-01-02 03:04:05 UTC" in results and "4 × Test CPU" in results
     assert reference not in results and "(figure `surface.png` in the run folder)" in results
