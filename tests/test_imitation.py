@@ -92,6 +92,12 @@ def test_bad_input_names_the_argument():
         Config(grasp_database="internet")
     with pytest.raises(ValueError, match="grasp_window_frac"):
         Config(grasp_window_frac=-0.1)
+    with pytest.raises(ValueError, match="grasp_metric"):
+        Config(grasp_metric="cosine")
+    with pytest.raises(ValueError, match="grasp_metric"):  # LDA is fitted on the demonstrations' crops
+        Config(grasp_database="study", grasp_metric="lda")
+    with pytest.raises(ValueError, match="grasp_lda_shrinkage"):
+        Config(grasp_lda_shrinkage=1.5)
     with pytest.raises(ValueError, match="robot_hand"):
         Config(robot_hand="shadow")
     with pytest.raises(ValueError, match="robot_orientation"):
