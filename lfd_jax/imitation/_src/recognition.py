@@ -149,27 +149,54 @@ class Recognised(NamedTuple):
     kind_phmm: str | None = None
 
 
-def movement(rec_online, stream: np.ndarray, merge_gap: int, area: TableArea = TableArea()):
+def _running_at_end(rec_online, stream: np.ndarray, measured: np.ndarray | None) -> tuple[int, int] | None:
+    """(start, end) of the movement the detector still follows when the stream stops, ended at the last
+    measured frame (a recording stops with the demonstration: the hand need not settle in view before it
+    does); None where none runs or it is shorter than any class's paths. Never longer than `max_frames`."""
+    state, _ = P.online_scan(rec_online, stream)
+    if not bool(state.moving):
+        return None
+    start = int(state.start)
+    last = len(stream) - 1 if measured is None or not measured.any() else int(np.flatnonzero(measured)[-1])
+    end = min(last, start + rec_online.options.max_frames - 1)
+    return (start, end) if end - start + 1 >= rec_online.min_frames else None
+
+
+def movement(rec_online, stream: np.ndarray, merge_gap: int, area: TableArea = TableArea(),
+             measured: np.ndarray | None = None):
     """The demonstrated movement in a stream (PHMM, BMVC §5.4 online detection; eq. 3 recognition).
 
     The online detector's events that a class explains, merged where fewer than `merge_gap` frames lie
     between them (a pointing hold or a put-down ends a detected movement early; the PHMMs model the
-    whole one), the merged frames recognised once more (class and φ).
+    whole one), the merged frames recognised once more (class and φ). A movement still under way when
+    the stream stops (the detector ends one only after the hand has been still for its window) counts
+    as ended at the last measured frame.
 
     Args:
         rec_online: the `recognizer`.
         stream: (T, 3) the recogniser's input (`stream_of`).
         merge_gap: the largest gap (frames) between events merged into one movement.
         area: the table rectangle the PHMMs' grid spans.
+        measured: (T,) bool, the frames actually tracked (`plausible`); None: every frame.
 
     Returns:
         (kind, target (2,) world m, start, end), or None if no movement is found.
+
+    Raises:
+        ValueError: `measured` does not match `stream`.
     """
+    if measured is not None:
+        measured = np.asarray(measured, bool)
+        if measured.shape != (len(stream),):
+            raise ValueError(f"measured: expected ({len(stream)},) flags as stream's frames, got {measured.shape}")
     events = P.run_online(rec_online, stream)
     ok = np.flatnonzero(events.found)
-    if not ok.size:
-        return None
     starts, ends = events.start[ok], events.end[ok]
+    running = _running_at_end(rec_online, stream, measured)
+    if running is not None:
+        starts, ends = np.r_[starts, running[0]], np.r_[ends, running[1]]
+    if not starts.size:
+        return None
     group = np.cumsum(np.r_[0, starts[1:] - ends[:-1] > merge_gap])
     lengths = np.bincount(group, weights=ends - starts + 1)
     best = int(np.argmax(lengths))
@@ -177,8 +204,10 @@ def movement(rec_online, stream: np.ndarray, merge_gap: int, area: TableArea = T
     segment = stream[s:e + 1]
     longest = rec_online.options.max_frames
     if len(segment) > longest:  # longer than any path: the detector's longest event stands
-        i = ok[np.argmax(ends - starts)]
-        return KINDS[int(events.label[i])], phi_to_xy(np.asarray(events.phi[i], float), area), int(starts.max()), int(e)
+        n = len(ok)  # the detector's own events (a running movement alone is no longer than a path)
+        i = ok[np.argmax(ends[:n] - starts[:n])]
+        xy = phi_to_xy(np.asarray(events.phi[i], float), area)
+        return KINDS[int(events.label[i])], xy, int(starts[:n].max()), int(e)
     res = P.recognize(list(rec_online.phmms), _padded(segment, longest)[None], [len(segment)])
     loglik = np.asarray(res.loglik)[0]
     k = int(np.argmax(np.where(np.isfinite(loglik), loglik, -np.inf)))
@@ -222,10 +251,11 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     if objects_xy.ndim != 2 or objects_xy.shape[1] != 2 or not np.isfinite(objects_xy).all():
         raise ValueError(f"objects_xy: expected finite (K, 2) table positions, got {objects_xy.shape}")
     nan2 = np.full(2, np.nan)
-    if not plausible(tracked, median_frames).any():
+    measured = plausible(tracked, median_frames)
+    if not measured.any():
         return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
     stream = stream_of(tracked, offset, median_frames)
-    found = movement(rec_online, stream, merge_gap, area)
+    found = movement(rec_online, stream, merge_gap, area, measured)
     if found is None:
         return Recognised(None, nan2, -1, -1, -1, -1, -1, nan2, -1, np.full(4, np.nan))
     kind, xy, s, e = found
@@ -238,7 +268,7 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
         return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan), "",
                           target, kind_phmm)
     kind = "transfer"
-    g, p = grasp_and_putdown(stream, plausible(tracked, median_frames), s, e)
+    g, p = grasp_and_putdown(stream, measured, s, e)
     from_reach = None if reach_phmm is None else reach_target(reach_phmm, stream[s:g + 1], area)
     if from_reach is not None:
         xy, guessed = from_reach, target
