@@ -7,6 +7,7 @@ import pytest
 
 import phmm_jax as P
 from lfd_jax import imitation as im
+from tests.synthetic_movements import out_and_back
 
 CFG = P.HMMConfig(n_states=4, min_duration=2, max_duration=8)  # paths of 8..32 frames
 REST = np.array([-0.25, 0.0, -0.40])  # hand - face at rest (m)
@@ -18,21 +19,10 @@ def target(phi) -> np.ndarray:
     return REST + np.array([0.05 + 0.10 * phi[0], -0.20 - 0.15 * phi[1], 0.12])
 
 
-def min_jerk(n):
-    s = np.linspace(0.0, 1.0, n)
-    return 10 * s**3 - 15 * s**4 + 6 * s**5
-
-
 def movement(rng, kind: int, phi, noise: float = 0.003) -> np.ndarray:
     """(L, 3) from REST to `target(phi)`, a hold and back: kind 0 straight ("point"), kind 1 over an arc
     lifted in z and drawn back in x ("transfer")."""
-    s = np.concatenate([min_jerk(int(rng.integers(6, 9))), np.ones(int(rng.integers(3, 6)))[1:],
-                        1.0 - min_jerk(int(rng.integers(6, 9)))[1:]])
-    path = REST + s[:, None] * (target(phi) - REST)
-    if kind == 1:
-        path[:, 2] += 0.15 * np.sin(np.pi * s)
-        path[:, 0] -= 0.10 * np.sin(np.pi * s)
-    return path + noise * rng.normal(size=path.shape)
+    return out_and_back(rng, kind, REST, target(phi), noise)
 
 
 @pytest.fixture(scope="module")

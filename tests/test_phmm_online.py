@@ -15,6 +15,7 @@ from scipy.special import logsumexp
 
 import phmm_jax as P
 from tests.phmm_reference import emission_table
+from tests.synthetic_movements import out_and_back
 
 PROPERTY = settings(max_examples=15, deadline=None, database=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -28,24 +29,10 @@ def raises_named(name, call):
         call()
 
 
-def min_jerk(n):
-    s = np.linspace(0.0, 1.0, n)
-    return 10 * s**3 - 15 * s**4 + 6 * s**5
-
-
 def movement(rng, kind: int, phi: float, noise: float = 0.004):
     """A synthetic hand movement (T, 3) from REST to a target on a line (φ in [0, 1]) and back: kind 0
     straight with a hold at the target ("pointing"), kind 1 over an arc lifted in z ("reaching")."""
-    target = REST + np.array([0.35, -0.2 + 0.4 * phi, 0.1])
-    out = min_jerk(int(rng.integers(6, 9)))
-    back = 1.0 - min_jerk(int(rng.integers(6, 9)))
-    hold = np.ones(int(rng.integers(3, 6)))
-    s = np.concatenate([out, hold[1:], back[1:]])
-    path = REST + s[:, None] * (target - REST)
-    if kind == 1:
-        path[:, 2] += 0.15 * np.sin(np.pi * s)
-        path[:, 0] -= 0.1 * np.sin(np.pi * s)
-    return path + noise * rng.normal(size=path.shape)
+    return out_and_back(rng, kind, REST, REST + np.array([0.35, -0.2 + 0.4 * phi, 0.1]), noise)
 
 
 @pytest.fixture(scope="module")
