@@ -58,3 +58,17 @@ def test_a_movement_that_settles_is_the_detectors_own(online):
     assert found[2:] == im.movement(online, stream, 10, measured=np.arange(len(stream)) < START + len(move))[2:]
     with pytest.raises(ValueError, match="measured"):
         im.movement(online, stream, 10, measured=np.ones(len(stream) - 1, bool))
+
+
+def test_a_pointing_s_object_is_the_likeliest_of_the_known_ones(online):
+    rng = np.random.default_rng(5)
+    phis = np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]])  # the objects' parameters; the movement is to the first
+    objects_xy = im.phi_to_xy(phis)
+    segment = movement(rng, 0, phis[0])
+    point = online.phmms[im.KINDS.index("point")]
+    assert im.likeliest_object(point, segment, objects_xy, online.options.max_frames) == 0
+    # the padding changes nothing: the likelihood of the unpadded movement at each object decides
+    for i, phi in enumerate(phis):
+        segment = movement(rng, 0, phi)
+        loglik = [float(P.phmm_log_likelihood(point, segment, p)[0]) for p in phis]
+        assert im.likeliest_object(point, segment, objects_xy, online.options.max_frames) == int(np.argmax(loglik)) == i

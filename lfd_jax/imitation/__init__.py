@@ -7,7 +7,8 @@ mapping of MAP (Romero et al. 2009), step by step:
    output for one recording is a `Tracked` (hand - face in world axes, turned by `camera_rotation`).
 2. The tracked stream is cleaned (`plausible`, `median_filter`, `stream_of`) and the online PHMM
    recogniser (`recognizer`, `movement`; PHMM BMVC §5.4) finds the movement, its class (`KINDS`:
-   point or transfer) and its target on the table (`TableArea`, `phi_to_xy`, `xy_to_phi`).
+   point or transfer) and its target on the table (`TableArea`, `phi_to_xy`, `xy_to_phi`); a pointing's
+   object is the one at whose parameter the PHMM finds the movement likeliest (`likeliest_object`).
 3. The grasp moment and the put-down come from the hand's speed (`grasp_and_putdown`); a transfer's
    target from its reach alone (`reach_segment`, `reach_target`); which object moved and where it was
    put, from the scene at rest before and after the movement (`place_reader`, `scene_place`,
@@ -29,14 +30,14 @@ Example:
 from lfd_jax.imitation._src.area import TableArea, phi_to_xy, xy_to_phi
 from lfd_jax.imitation._src.place import (ScenePlace, changed_shares, moved_object, pixel_ray, place_reader, project,
                                           scene_place)
-from lfd_jax.imitation._src.recognition import (KINDS, Recognised, grasp_and_putdown, movement, reach_segment,
-                                                reach_target, recognise_demo, recognizer)
+from lfd_jax.imitation._src.recognition import (KINDS, Recognised, grasp_and_putdown, likeliest_object, movement,
+                                                reach_segment, reach_target, recognise_demo, recognizer)
 from lfd_jax.imitation._src.robot import hand_rotation, robot_task, synthesised_reach, task_spec
 from lfd_jax.imitation._src.tracked import Tracked, camera_rotation, median_filter, plausible, stream_of
 
 __all__ = [
     "KINDS", "Recognised", "ScenePlace", "TableArea", "Tracked", "camera_rotation", "changed_shares",
-    "grasp_and_putdown", "hand_rotation", "median_filter", "moved_object", "movement", "phi_to_xy", "pixel_ray",
-    "place_reader", "plausible", "project", "reach_segment", "reach_target", "recognise_demo", "recognizer",
-    "robot_task", "scene_place", "stream_of", "synthesised_reach", "task_spec", "xy_to_phi",
+    "grasp_and_putdown", "hand_rotation", "likeliest_object", "median_filter", "moved_object", "movement", "phi_to_xy",
+    "pixel_ray", "place_reader", "plausible", "project", "reach_segment", "reach_target", "recognise_demo",
+    "recognizer", "robot_task", "scene_place", "stream_of", "synthesised_reach", "task_spec", "xy_to_phi",
 ]

@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 
 import phmm_jax as P
-from lfd_jax.imitation._src.area import TableArea, phi_to_xy
+from lfd_jax.imitation._src.area import TableArea, phi_to_xy, xy_to_phi
 from lfd_jax.imitation._src.tracked import Tracked, plausible, stream_of
 
 KINDS: tuple[str, ...] = ("point", "transfer")  # the recognised actions, in the class PHMMs' order
@@ -95,6 +95,29 @@ def _padded(segment: np.ndarray, length: int) -> np.ndarray:
     return np.concatenate([segment, np.repeat(segment[-1:], length - len(segment), axis=0)])
 
 
+def likeliest_object(phmm: P.PHMM, segment: np.ndarray, objects_xy: np.ndarray, longest: int,
+                     area: TableArea = TableArea()) -> int:
+    """The object at whose parameter the PHMM explains a movement best (PHMM eq. 3's likelihood at the known
+    candidates: the MAP object under a uniform prior). Where the objects are known, this compares the
+    likelihood at each of them instead of taking the object nearest the continuous maximum, whose φ a
+    likelihood flat along one direction leaves far off.
+
+    Args:
+        phmm: the movement's class PHMM, its observation noise already in the model.
+        segment: (L, 3) the movement, L >= 1.
+        objects_xy: (K, 2) where the objects stand, world m.
+        longest: the length the segment is padded to (one compilation for every length).
+        area: the table rectangle the PHMM's grid spans.
+
+    Returns:
+        The index of the likeliest object.
+    """
+    k = len(objects_xy)
+    x = np.repeat(_padded(segment, max(longest, len(segment)))[None], k, axis=0)
+    loglik = np.asarray(P.phmm_log_likelihood(phmm, x, xy_to_phi(objects_xy, area), np.full(k, len(segment))))
+    return int(np.argmax(np.where(np.isfinite(loglik), loglik, -np.inf)))
+
+
 def reach_target(reach_phmm: P.PHMM, segment: np.ndarray, area: TableArea = TableArea()) -> np.ndarray | None:
     """The target of a reach by the reach PHMM (PHMM eq. 3, Humanoids §III).
 
@@ -119,7 +142,9 @@ class Recognised(NamedTuple):
     Attributes:
         kind: "point" / "transfer"; None: no movement.
         target_xy: (2,) the PHMMs' target (NaN if none).
-        target: the nearest object (-1 if none).
+        target: the object recognised (-1 if none): for a pointing the object at whose parameter the
+            pointing PHMM finds the movement likeliest (`likeliest_object`), for a transfer the nearest
+            to the PHMMs' target.
         start: the movement's first frame (-1).
         end: its last frame (-1).
         grasp_frame: the grasp moment (-1 for pointing).
@@ -129,8 +154,8 @@ class Recognised(NamedTuple):
         grasp_quat: (4,) the hand's orientation relative to the camera (NaN if none).
         place_from: "scene": the object's own displacement in the video (`scene_place`); "hand": the
             hand's; "" for pointing.
-        target_phmm: the object nearest the PHMMs' target (`target` differs from it where the video
-            shows another object moved).
+        target_phmm: the PHMMs' object, as `target` (`target` differs from it where the video shows
+            another object moved).
         kind_phmm: the PHMMs' class (`kind` differs where the video shows an object moved, or none).
     """
 
@@ -265,6 +290,8 @@ def recognise_demo(rec_online, tracked: Tracked, offset, median_frames: int, obj
     if seen is not None and seen.still:
         kind = "point"                   # a transfer moves an object: the video shows none moved
     if kind == "point" and (seen is None or seen.moved < 0):
+        target = likeliest_object(rec_online.phmms[KINDS.index("point")], stream[s:e + 1], objects_xy,
+                                  rec_online.options.max_frames, area)
         return Recognised(kind, xy, target, s, e, -1, -1, np.asarray(handover_xy, float), -1, np.full(4, np.nan), "",
                           target, kind_phmm)
     kind = "transfer"
