@@ -123,6 +123,8 @@ def test_moved_object_decides_only_when_one_position_changed():
 
 def test_the_video_overrules_the_phmms_action_where_it_shows_an_object_moved_or_none(monkeypatch):
     from lfd_jax.imitation._src import recognition  # `movement` is replaced where `recognise_demo` finds it
+    from types import SimpleNamespace
+
     from lfd_jax.imitation import ScenePlace
 
     n = 40
@@ -132,13 +134,16 @@ def test_the_video_overrules_the_phmms_action_where_it_shows_an_object_moved_or_
     objects = np.array([[0.0, -0.4], [0.2, -0.45], [-0.2, -0.5]])
     handover, new_place = np.array([-0.1, -0.3]), np.array([0.1, -0.3])
 
+    online = SimpleNamespace(phmms=(None, None), options=SimpleNamespace(max_frames=n))  # the PHMMs stand in
+
     def recognise(moved: int, kind: str = "point", still: bool = False):
         monkeypatch.setattr(recognition, "movement", lambda *_: (kind, objects[0] + 0.01, 5, 30))   # the PHMMs' answer
+        monkeypatch.setattr(recognition, "likeliest_object", lambda *_: 0)                          # the same object
 
         def scene(start, end, objects_xy, target):
             assert (start, end) == (5, 30)
             return ScenePlace(moved, new_place if moved >= 0 else np.full(2, np.nan), moved >= 0, "", still)
-        return recognition.recognise_demo(None, tracked, np.zeros(3), 3, objects, handover, scene=scene)
+        return recognition.recognise_demo(online, tracked, np.zeros(3), 3, objects, handover, scene=scene)
 
     r = recognise(1)                                              # the video: object 1 moved to new_place
     assert (r.kind, r.kind_phmm, r.target, r.target_phmm, r.place_from) == ("transfer", "point", 1, 0, "scene")
