@@ -32,7 +32,7 @@ from experiments.imitation.demonstrations import DEMO_PACKAGES, Demo, draw_demos
 from experiments.imitation.fovea import Fovea, fovea_rig
 from lfd_common import Cache
 from lfd_jax.grasp import (Crops, Recogniser, RecogniserOptions, build_recogniser, cached_convnet, features,
-                           fit_convnet, hog_config, hog_features, net_labels, recognise)
+                           fit_convnet, hog_config, hog_features, net_labels, recognise, transformed)
 from lfd_jax.imitation import camera_rotation
 from sim.grasping import GRASP_CLASSES
 from sim.scenes import PART_NAMES
@@ -149,8 +149,7 @@ def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
     x = hog_features(images, masks, found, hcfg)[found]
     labels = np.array([GRASP_CLASSES.index(g) for g in grasps[found]])
     metric = hog_jax.fit_metric(x, labels, shrinkage=cfg.grasp_lda_shrinkage) if cfg.grasp_metric == "lda" else None
-    model = hog_jax.fit(x if metric is None else np.asarray(hog_jax.apply_metric(metric, x)), labels,
-                        n_classes=len(GRASP_CLASSES), seed=cfg.seed)
+    model = hog_jax.fit(transformed(metric, x), labels, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
     net = None
     if cfg.grasp_classifier == "cnn":
         data = (images[found], masks[found], labels)
