@@ -132,6 +132,13 @@ def test_bad_input_names_the_argument():
         scene_place(before, after[:, :100], P, xy, 0, 0.8)
     with pytest.raises(ValueError, match="before"):
         scene_place(before[0], after, P, xy, 0, 0.8)
+    for name in ("search_m", "object_half_m", "cap"):
+        with pytest.raises(ValueError, match=name):
+            scene_place(before, after, P, xy, 0, 0.8, **{name: 0.0})
+    with pytest.raises(ValueError, match="min_changed"):
+        scene_place(before, after, P, xy, 0, 0.8, min_changed=1.5)
+    with pytest.raises(ValueError, match="table_z"):
+        scene_place(before, after, P, xy, 0, float("nan"))
 
 
 def test_moved_object_decides_only_when_one_position_changed():

@@ -34,6 +34,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
+from lfd_common import check_int, check_real
+
 
 class ScenePlace(NamedTuple):
     """What the scene shows of a transfer (module docstring).
@@ -277,7 +279,8 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
         The `ScenePlace`.
 
     Raises:
-        ValueError: bad frames, camera matrix, positions or target (the message names the argument).
+        ValueError: bad frames, camera matrix, positions, target or a parameter out of its range (the message
+            names the argument).
     """
     for name, frames in (("before", before), ("after", after)):
         if frames.ndim != 4 or frames.shape[-1] != 3 or len(frames) == 0:
@@ -291,6 +294,15 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
         raise ValueError(f"objects_xy: expected finite (K >= 1, 2) positions, got {objects_xy.shape}")
     if not 0 <= target < len(objects_xy):
         raise ValueError(f"target: expected an index of objects_xy (0-{len(objects_xy) - 1}), got {target}")
+    check_real(table_z, "table_z")
+    check_real(look_height, "look_height")
+    for name, value in (("threshold", threshold), ("radius_px", radius_px), ("object_half_m", object_half_m),
+                        ("object_height_m", object_height_m), ("search_m", search_m), ("cap", cap)):
+        check_real(value, name, min_value=0.0, exclusive_min=True)
+    for name, value in (("still_share", still_share), ("min_changed", min_changed)):
+        check_real(value, name, min_value=0.0, max_value=1.0)
+    check_real(max_cost, "max_cost", min_value=0.0)
+    check_int(min_px, "min_px", min_value=1)
     b, a, changed = _changed(before, after, threshold)
     old_px = np.stack([project(P, np.r_[xy, table_z + look_height]) for xy in objects_xy])
     shares = changed_shares(changed, old_px, radius_px)
