@@ -33,10 +33,11 @@ GRID = (3, 3)
 
 
 # ------------------------------------------------------------------------------------------ tracking
-# The rendering (the recording is a function of the settings and the demonstration), this module with what
-# it imports (`lfd_jax.imitation`'s tracked stream), and the video front end (`hog_jax.video.front_end`).
+# The rendering (the recording is a function of the settings and the demonstration), this module, the tracked
+# stream's module of `lfd_jax.imitation` (`Tracked`, `camera_rotation`; not the recognition and the place, so
+# that changing them keeps the tracks), and the video front end (`hog_jax.video.front_end`).
 TRACK_PACKAGES: tuple[str, ...] = DEMO_PACKAGES + (
-    "experiments.imitation.pipeline", "experiments.imitation.config", "lfd_jax.imitation", "hog_jax")
+    "experiments.imitation.pipeline", "experiments.imitation.config", "lfd_jax.imitation._src.tracked", "hog_jax")
 _TRACKS = Cache("imitation_tracks", packages=TRACK_PACKAGES)
 
 

@@ -46,8 +46,8 @@ def skin_models(cfg: Config, settings):
 
 
 # `pipeline.train_phmms` runs the demonstrations' kinematics, `lfd_jax.imitation` and `phmm_jax`; the pipeline
-# module's import closure is `TRACK_PACKAGES` and `phmm_jax`.
-_PHMMS = Cache("imitation_phmm", packages=pl.TRACK_PACKAGES + ("phmm_jax",))
+# module's import closure is `TRACK_PACKAGES`, the rest of `lfd_jax.imitation` and `phmm_jax`.
+_PHMMS = Cache("imitation_phmm", packages=pl.TRACK_PACKAGES + ("lfd_jax.imitation", "phmm_jax"))
 
 
 def phmm_models(cfg: Config, settings) -> list:
