@@ -62,17 +62,19 @@ def _not_found(moved: int, reason: str, still: bool = False) -> ScenePlace:
 
 
 def pixel_ray(P: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The ray through a pixel of a pinhole camera, world coordinates.
+    """The rays through pixels of a pinhole camera, world coordinates.
 
     Args:
         P: (3, 4) camera matrix.
-        uv: (2,) the pixel (column, row).
+        uv: (..., 2) pixels (column, row).
 
     Returns:
-        (camera centre (3,), direction (3,)).
+        (camera centre (3,), directions (..., 3)).
     """
     M, p4 = P[:, :3], P[:, 3]
-    return -np.linalg.solve(M, p4), np.linalg.solve(M, np.array([uv[0], uv[1], 1.0]))
+    uv = np.asarray(uv, float)
+    homogeneous = np.concatenate([uv, np.ones((*uv.shape[:-1], 1))], axis=-1)
+    return -np.linalg.solve(M, p4), np.linalg.solve(M, homogeneous.reshape(-1, 3).T).T.reshape(homogeneous.shape)
 
 
 def project(P: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -91,12 +93,8 @@ def project(P: np.ndarray, X: np.ndarray) -> np.ndarray:
 
 def _on_plane(P, uv, height: float) -> np.ndarray:
     """(..., 2) pixels (column, row) -> (..., 2) where their rays cross the plane z = height (world x, y)."""
-    uv = np.asarray(uv, float)
-    M, p4 = P[:, :3], P[:, 3]
-    centre = -np.linalg.solve(M, p4)
-    direction = np.linalg.solve(M, np.c_[uv.reshape(-1, 2), np.ones(uv.size // 2)].T).T  # (m, 3)
-    xy = centre[:2] + ((height - centre[2]) / direction[:, 2])[:, None] * direction[:, :2]
-    return xy.reshape(uv.shape)
+    centre, direction = pixel_ray(P, uv)
+    return centre[:2] + ((height - centre[2]) / direction[..., 2])[..., None] * direction[..., :2]
 
 
 def _height_over(P, uv, xy) -> float:
