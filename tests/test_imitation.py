@@ -118,12 +118,12 @@ def test_hand_crop_window_keeps_a_skin_coloured_jacket_out():
     frame[20:100, 10:80] = (200, 140, 110)                      # a large skin-coloured jacket ...
     frame[63:71, 80:100] = (200, 140, 110)                      # ... joined to the hand by a strip
     iou = lambda a, b: (a & b).sum() / (a | b).sum()            # noqa: E731
-    _, hand, _ = hand_crop(alone[None], (67, 106), skin, 32)
-    _, whole, found = hand_crop(frame[None], (67, 106), skin, 32)
-    _, win, found_w = hand_crop(frame[None], (67, 106), skin, 32, window=8)
-    assert found.all() and found_w.all()
-    assert iou(whole[0], hand[0]) < 0.65 and iou(win[0], hand[0]) > 0.85  # the jacket no longer sets the box
+    hand = hand_crop(alone[None], (67, 106), skin, 32).masks
+    whole = hand_crop(frame[None], (67, 106), skin, 32)
+    win = hand_crop(frame[None], (67, 106), skin, 32, window=8)
+    assert whole.found.all() and win.found.all()
+    assert iou(whole.masks[0], hand[0]) < 0.65 and iou(win.masks[0], hand[0]) > 0.85  # the jacket no longer sets the box
     # the window at the frame's edge is padded with background, and the hand is still found there
     edge = np.full((120, 160, 3), (40, 90, 160), np.uint8)
     edge[0:10, 150:160] = (200, 140, 110)
-    assert hand_crop(edge[None], (4, 156), skin, 32, window=12)[2].all()
+    assert hand_crop(edge[None], (4, 156), skin, 32, window=12).found.all()

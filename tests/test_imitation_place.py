@@ -94,6 +94,22 @@ def test_a_short_move_and_a_partly_hidden_place_are_found(new_xy, in_front):
     assert np.linalg.norm(res.xy - np.array(new_xy)) < 0.015
 
 
+def test_a_place_off_the_table_is_not_taken():
+    # the moved box partly hidden at its new place, and a box just like it off the table (a white shirt
+    # behind a white cup): the better match is off the table, the place is the one on it
+    P = _camera()
+    old_xy, new_xy, decoy = (-0.2, -0.45), (0.05, -0.30), (-0.2, -0.03)
+    before, after = _frames(P, old_xy, new_xy, in_front=(0.0, -0.24))
+    drawn = np.zeros_like(after[0])
+    _draw_box(drawn, P, decoy, (255, 255, 255))
+    after[:, drawn.any(-1)] = (255, 255, 250)  # the moved box's colour under the brighter lights
+    objects = np.array([STILL_XY, old_xy])
+    anywhere = scene_place(before, after, P, objects, 1, TABLE_Z)
+    assert anywhere.found and np.linalg.norm(anywhere.xy - np.array(decoy)) < 0.03
+    on_table = scene_place(before, after, P, objects, 1, TABLE_Z, table_xy=((-0.9, 0.9), (-0.85, -0.15)))
+    assert on_table.found and np.linalg.norm(on_table.xy - np.array(new_xy)) < 0.015
+
+
 def test_a_scene_where_nothing_was_moved_is_still():
     # a pointing: the lights and the person's posture change, no object does
     P = _camera()
@@ -143,6 +159,9 @@ def test_bad_input_names_the_argument():
         scene_place(before, after, P, xy, 0, 0.8, min_changed=1.5)
     with pytest.raises(ValueError, match="table_z"):
         scene_place(before, after, P, xy, 0, float("nan"))
+    for bounds in (((0.5, -0.5), (-0.8, -0.2)), ((-0.5, 0.5),), ((-0.5, np.inf), (-0.8, -0.2))):
+        with pytest.raises(ValueError, match="table_xy"):
+            scene_place(before, after, P, xy, 0, 0.8, table_xy=bounds)
 
 
 def test_moved_object_decides_only_when_one_position_changed():

@@ -107,10 +107,11 @@ class Config:
         if self.fovea_px and not 8 <= self.fovea_px <= 1024:
             raise ValueError(f"fovea_px: expected 0 or 8 to 1024, got {self.fovea_px}")
         check_real(self.fovea_fov_deg, "fovea_fov_deg", min_value=0.0, max_value=89.0, exclusive_min=True)
-        if self.grasp_classifier not in ("knn", "cnn"):
-            raise ValueError(f"grasp_classifier: expected 'knn' or 'cnn', got {self.grasp_classifier!r}")
-        if self.grasp_classifier == "cnn" and self.grasp_database != "demonstrations":
-            raise ValueError("grasp_classifier: 'cnn' is trained on the 'demonstrations' crops (grasp_database)")
+        if self.grasp_classifier not in ("knn", "cnn", "scene_cnn"):
+            raise ValueError(f"grasp_classifier: expected 'knn', 'cnn' or 'scene_cnn', got {self.grasp_classifier!r}")
+        if self.grasp_classifier != "knn" and self.grasp_database != "demonstrations":
+            raise ValueError(f"grasp_classifier: {self.grasp_classifier!r} is trained on the 'demonstrations' crops "
+                             "(grasp_database)")
         if self.grasp_metric not in ("none", "lda"):
             raise ValueError(f"grasp_metric: expected 'none' or 'lda', got {self.grasp_metric!r}")
         if self.grasp_metric == "lda" and self.grasp_database != "demonstrations":

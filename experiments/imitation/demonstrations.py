@@ -203,3 +203,8 @@ def render_demo(settings: video.VideoSettings, demo: Demo, cache: bool = True, p
 def table_z() -> float:
     """The table top's height (world m)."""
     return float(TABLE.top_z)
+
+
+def table_xy() -> tuple[tuple[float, float], tuple[float, float]]:
+    """The table top's extent ((x low, x high), (y low, y high)), world m."""
+    return (-TABLE.half_width, TABLE.half_width), (TABLE.far_y, TABLE.near_y)

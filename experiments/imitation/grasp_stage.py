@@ -31,7 +31,7 @@ from experiments.imitation.config import Config
 from experiments.imitation.demonstrations import DEMO_PACKAGES, Demo, draw_demos, render_demo
 from experiments.imitation.fovea import Fovea, fovea_rig
 from lfd_common import Cache
-from lfd_jax.grasp import (Crops, Recogniser, RecogniserOptions, build_recogniser, cached_convnet, features,
+from lfd_jax.grasp import (Crops, Recogniser, RecogniserOptions, build_recogniser, cached_convnet, crops_of, features,
                            fit_convnet, hog_config, hog_features, net_labels, recognise, transformed)
 from lfd_jax.imitation import camera_rotation
 from sim.grasping import GRASP_CLASSES
@@ -40,11 +40,11 @@ from sim.scenes import PART_NAMES
 _GRASP_SEED = 3000  # the demonstrations of the "demonstrations" database (PHMMs: 2000, validation: 1000)
 
 
-def hand_crop(frames: np.ndarray, hand_rc, skin, out_size: int, window: int = 0):
-    """The skin-segmented hand crops (images (B, S, S), masks, found (B,)) at the tracked hand (row, col)
-    (B, 2) of each of `frames` (B, H, W, 3) (GRASP §III-A); `window` > 0: only skin within that many
-    pixels (a square) of the hand, so that a skin-coloured sleeve or jacket joined to the hand does not
-    become the crop."""
+def hand_crop(frames: np.ndarray, hand_rc, skin, out_size: int, window: int = 0) -> Crops:
+    """The skin-segmented hand crops (`lfd_jax.grasp.Crops`: images (B, S, S), masks, found (B,), the
+    unmasked boxes) at the tracked hand (row, col) (B, 2) of each of `frames` (B, H, W, 3) (GRASP §III-A);
+    `window` > 0: only skin within that many pixels (a square) of the hand, so that a skin-coloured
+    sleeve or jacket joined to the hand does not become the crop."""
     frames = np.asarray(frames)
     rc = np.asarray(hand_rc, np.float32).reshape(-1, 2)
     if window:
@@ -55,8 +55,7 @@ def hand_crop(frames: np.ndarray, hand_rc, skin, out_size: int, window: int = 0)
         cols = (corner[:, 1, None] + window + offsets)[:, None, :]
         frames = padded[np.arange(len(frames))[:, None, None], rows, cols]
         rc = rc - corner
-    seg = hog_jax.segment(skin, frames, seed_points=rc, out_size=out_size)
-    return np.asarray(seg.images), np.asarray(seg.masks), np.asarray(seg.found)
+    return crops_of(hog_jax.segment(skin, frames, seed_points=rc, out_size=out_size))
 
 
 def crop_window(cfg: Config, settings: video.VideoSettings) -> int:
@@ -114,7 +113,7 @@ _CROPS = Cache("imitation_grasp_crops", packages=DEMO_PACKAGES + (
 def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin, n: int, seed: int):
     """Hand crops of n transfer demonstrations drawn with `seed`, at their pick-up frame shifted by each
     of `cfg.grasp_frames_s`, from the views of `hand_views` aimed at the renderer's hand (the tracker
-    taken out): images (N, S, S), masks, found (N,), grasp classes (N,), demonstration index (N,), in the
+    taken out): (`lfd_jax.grasp.Crops` of N crops, grasp classes (N,), demonstration index (N,)), in the
     demonstrations' order. Cached under the project cache (`imitation_grasp_crops`)."""
     crop_size = database_options(cfg).crop_size
     demos = draw_demos(n, seed, cfg.demonstrators, cfg.handover_xy, kinds=("transfer",))
@@ -133,8 +132,9 @@ def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin,
             raise ValueError(f"n: no hand visible at the pick-up of the {n} demonstrations")
         return tuple(np.concatenate(parts) for parts in zip(*(crops[i] for i in sorted(crops))))
 
-    return _CROPS.get(compute, settings=settings, skin=chroma_skin, demos=demos, shifts=shifts, crop_size=crop_size,
+    *parts, grasps, index = _CROPS.get(compute, settings=settings, skin=chroma_skin, demos=demos, shifts=shifts, crop_size=crop_size,
                       fovea=(cfg.fovea_px, cfg.fovea_fov_deg), window=crop_window(cfg, settings))
+    return Crops(*parts), grasps, index
 
 
 def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
@@ -143,20 +143,21 @@ def grasp_recogniser(cfg: Config, settings: video.VideoSettings, chroma_skin):
     if cfg.grasp_database == "study":
         db = database(dcfg, progress=lambda it, total, d: progress(it, desc=d, total=total))
         return dcfg, build_recogniser(options, jax.random.key(cfg.seed), db, None)
-    images, masks, found, grasps, _ = demonstration_crops(cfg, settings, chroma_skin, cfg.grasp_train_demos,
-                                                          cfg.seed + _GRASP_SEED)
+    crops, grasps, _ = demonstration_crops(cfg, settings, chroma_skin, cfg.grasp_train_demos, cfg.seed + _GRASP_SEED)
+    found = crops.found
     hcfg = hog_config(options)
-    x = hog_features(images, masks, found, hcfg)[found]
+    x = hog_features(crops.images, crops.masks, found, hcfg)[found]
     labels = np.array([GRASP_CLASSES.index(g) for g in grasps[found]])
     metric = hog_jax.fit_metric(x, labels, shrinkage=cfg.grasp_lda_shrinkage) if cfg.grasp_metric == "lda" else None
     model = hog_jax.fit(transformed(metric, x), labels, n_classes=len(GRASP_CLASSES), seed=cfg.seed)
     net = None
-    if cfg.grasp_classifier == "cnn":
-        data = (images[found], masks[found], labels)
-        net = cached_convnet(dict(crops=data, seed=cfg.seed, epochs=cfg.grasp_cnn_epochs),
-                             lambda: fit_convnet(*data, len(GRASP_CLASSES), cfg.seed, epochs=cfg.grasp_cnn_epochs,
-                                                 progress=lambda it, total: progress(it, desc="grasp convnet",
-                                                                                     total=total)))
+    if cfg.grasp_classifier in ("cnn", "scene_cnn"):
+        train = crops.take(found)
+        context = train.context if cfg.grasp_classifier == "scene_cnn" else None
+        data = (train.images, train.masks, labels)
+        net = cached_convnet(dict(crops=data, seed=cfg.seed, epochs=cfg.grasp_cnn_epochs), lambda: fit_convnet(
+            *data, len(GRASP_CLASSES), cfg.seed, epochs=cfg.grasp_cnn_epochs, context=context,
+            progress=lambda it, total: progress(it, desc="grasp convnet", total=total)), context=context is not None)
     return dcfg, Recogniser(hcfg, metric, model, {}, None, options.k, None, net)
 
 
@@ -169,11 +170,12 @@ def grasp_function(cfg: Config, models_grasp, chroma_skin, demo: Demo, rec: vide
 
     def at(frame: int):
         views, rc, window = hand_views(cfg, settings, demo, rec, [frame], hand_rc[frame])
-        images, masks, found = hand_crop(views, rc, chroma_skin, dcfg.crop_size, window)
-        if not found.any():
+        crops = hand_crop(views, rc, chroma_skin, dcfg.crop_size, window)
+        if not crops.found.any():
             return -1, np.full(4, np.nan)
-        net = net_labels(recogniser, Crops(images, masks, found, images))  # None without a network
-        out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True, labels=net)
+        net = net_labels(recogniser, crops)  # None without a network
+        out = recognise(recogniser, features(recogniser, crops.images, crops.masks, crops.found), crops.found,
+                        exact=True, labels=net)
         label = int(out.labels[0])
         quat = out.quat[0] if cfg.grasp_database == "study" else np.full(4, np.nan)
         return (GRASP_CLASSES[label] if label >= 0 else -1), quat

@@ -13,7 +13,7 @@ import sim
 from experiments.config import parse_config, progress
 from experiments.imitation import pipeline as pl
 from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
-from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo, table_z
+from experiments.imitation.demonstrations import Demo, demo_track, draw_demos, render_demo, table_xy, table_z
 from experiments.imitation.grasp_stage import grasp_function, grasp_recogniser, view_rotation
 from lfd_common import Cache, enable_compilation_cache
 from lfd_jax import imitation as im
@@ -151,7 +151,7 @@ def scene_reader(cfg: Config, rec, tracked: im.Tracked):
     if not cfg.place_from_scene:
         return None
     return im.place_reader(rec.left, rec.P_left, rec.fps, tracked.start, cfg.online_window, cfg.place_rest_s,
-                           table_z=table_z())
+                           table_z=table_z(), table_xy=table_xy())
 
 
 def run_demo(cfg: Config, settings, models: Models, demo: Demo, robot: bool = True, render_robot: bool = False) -> dict:

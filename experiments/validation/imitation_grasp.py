@@ -17,7 +17,7 @@ from experiments.imitation.config import PRESETS, VALIDATION_SEED, Config
 from experiments.imitation.grasp_stage import demonstration_crops, grasp_recogniser
 from experiments.imitation.stages import skin_models
 from lfd_common import enable_compilation_cache
-from lfd_jax.grasp import features, recognise
+from lfd_jax.grasp import features, net_labels, recognise
 from sim.grasping import GRASP_CLASSES
 
 SEED_OFFSET = 77  # a validation stream of its own: not the loop's threshold/offset demonstrations
@@ -26,10 +26,11 @@ SEED_OFFSET = 77  # a validation stream of its own: not the loop's threshold/off
 def evaluate(cfg: Config, chroma, n: int) -> float:
     """Accuracy of cfg's grasp stage on n validation transfers' crops (and its confusion, printed)."""
     settings = cfg.video_settings()
-    images, masks, found, grasps, _ = demonstration_crops(cfg, settings, chroma, n,
-                                                          cfg.seed + VALIDATION_SEED + SEED_OFFSET)
+    crops, grasps, _ = demonstration_crops(cfg, settings, chroma, n, cfg.seed + VALIDATION_SEED + SEED_OFFSET)
+    found = crops.found
     _, recogniser = grasp_recogniser(cfg, settings, chroma)
-    out = recognise(recogniser, features(recogniser, images, masks, found), found, exact=True)
+    out = recognise(recogniser, features(recogniser, crops.images, crops.masks, found), found, exact=True,
+                    labels=net_labels(recogniser, crops))
     pred = np.array([GRASP_CLASSES[k] if k >= 0 else -1 for k in out.labels])
     classes = list(GRASP_CLASSES)
     confusion = np.zeros((len(classes), len(classes) + 1), int)

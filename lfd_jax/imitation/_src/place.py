@@ -182,7 +182,8 @@ _CANDIDATES_PER_STEP = 256  # displacements compared at once: (256, pixels, 3) f
 
 
 def _match_displacement(view: np.ndarray, after: np.ndarray, changed: np.ndarray, rows: np.ndarray, cols: np.ndarray,
-                        radius: int, scale_of, min_changed: float = 0.3, cap: float = 60.0) -> tuple[np.ndarray, float]:
+                        radius: int, scale_of, admissible, min_changed: float = 0.3,
+                        cap: float = 60.0) -> tuple[np.ndarray, float]:
     """The displacement of an object's old view that best matches the view after it moved.
 
     Every displacement d != 0 within `radius` pixels (each axis) that puts at least `min_changed` of the
@@ -199,6 +200,7 @@ def _match_displacement(view: np.ndarray, after: np.ndarray, changed: np.ndarray
         cols: (n,) and columns.
         radius: the largest displacement along each axis (pixels).
         scale_of: (m, 2) displacements (columns, rows) -> (m,) the object's image scale there over its old one.
+        admissible: (m, 2) displacements -> (m,) bool, where the object may stand after them (on the table).
         min_changed: the least share of the displaced pixels that changed.
         cap: the truncation of a pixel's RGB distance.
 
@@ -214,9 +216,11 @@ def _match_displacement(view: np.ndarray, after: np.ndarray, changed: np.ndarray
     share = cv2.matchTemplate(around, shape, cv2.TM_CCORR) / n  # (2 radius + 1)^2, index (dy + radius, dx + radius)
     share[radius, radius] = 0.0  # d = 0: the object's old pixels all changed because it left; not a place
     dy, dx = np.nonzero(share >= min_changed - 1e-4)
+    dy, dx = dy - radius, dx - radius
+    keep = admissible(np.stack([dx, dy], axis=1).astype(float)) if len(dy) else np.zeros(0, bool)
+    dy, dx = dy[keep], dx[keep]
     if not len(dy):
         return np.zeros(2), np.inf
-    dy, dx = dy - radius, dx - radius
     scale = scale_of(np.stack([dx, dy], axis=1).astype(float))
     old = view[rows, cols]
     centre_r, centre_c = rows.mean(), cols.mean()
@@ -240,7 +244,8 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
                 table_z: float, look_height: float = 0.05, threshold: float = 40.0, radius_px: float = 5.0,
                 still_share: float = 0.15, min_px: int = 20, object_half_m: float = 0.08,
                 object_height_m: float = 0.25, search_m: float = 0.6, min_changed: float = 0.3, cap: float = 60.0,
-                max_cost: float = 40.0) -> ScenePlace:
+                max_cost: float = 40.0, table_xy: tuple[tuple[float, float], tuple[float, float]] | None = None
+                ) -> ScenePlace:
     """Which object was moved and where it now stands, from the scene at rest before and after a
     movement (module docstring; MAP §VI: the objects' poses are known before the demonstration).
 
@@ -272,6 +277,9 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
         min_changed: the match's least changed share at the new place.
         cap: the match's truncation of a pixel's RGB distance.
         max_cost: the largest mean truncated RGB distance of a match.
+        table_xy: ((x low, x high), (y low, y high)) the table top, world m: a displacement that would
+            put the object off it is not a place (a white cup matched on a white shirt behind it); None:
+            anywhere.
 
     Returns:
         The `ScenePlace`.
@@ -301,6 +309,10 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
         check_real(value, name, min_value=0.0, max_value=1.0)
     check_real(max_cost, "max_cost", min_value=0.0)
     check_int(min_px, "min_px", min_value=1)
+    if table_xy is not None:
+        bounds = np.asarray(table_xy, np.float64)
+        if bounds.shape != (2, 2) or not np.isfinite(bounds).all() or (bounds[:, 0] >= bounds[:, 1]).any():
+            raise ValueError(f"table_xy: expected ((x low, x high), (y low, y high)), increasing, got {table_xy!r}")
     b, a, changed = _changed(before, after, threshold)
     old_px = np.stack([project(P, np.r_[xy, table_z + look_height]) for xy in objects_xy])
     shares = changed_shares(changed, old_px, radius_px)
@@ -319,16 +331,25 @@ def scene_place(before: np.ndarray, after: np.ndarray, P: np.ndarray, objects_xy
         there = _on_plane(P, centroid + d, height)
         return (P[2] @ np.r_[here, height, 1.0]) / (np.c_[there, np.full(len(d), height), np.ones(len(d))] @ P[2])
 
+    def place_of(d: np.ndarray) -> np.ndarray:  # (m, 2) displacements -> (m, 2) where the object then stands
+        return old_xy + _on_plane(P, centroid + d, height) - here
+
+    def admissible(d: np.ndarray) -> np.ndarray:
+        if table_xy is None:
+            return np.ones(len(d), bool)
+        xy = place_of(d)
+        return ((xy >= bounds[:, 0]) & (xy <= bounds[:, 1])).all(axis=1)
+
     d, cost = _match_displacement(b, a, changed, rows, cols, _search_radius(P, old_xy, table_z, search_m), scale_of,
-                                  min_changed, cap)
+                                  admissible, min_changed, cap)
     if cost > max_cost:
         return _not_found(moved, "no displacement of the object's old view matches the view after", still)
-    shift = _on_plane(P, centroid + d, height) - here
-    return ScenePlace(moved, old_xy + shift, True, "", still)
+    return ScenePlace(moved, place_of(d[None])[0], True, "", still)
 
 
 def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int, margin: int, rest_s: float = 0.5,
-                 height: float = 0.05, min_px_320: int = 20, radius_px_320: float = 5.0, *, table_z: float):
+                 height: float = 0.05, min_px_320: int = 20, radius_px_320: float = 5.0, *, table_z: float,
+                 table_xy: tuple[tuple[float, float], tuple[float, float]] | None = None):
     """A reader of transfers from one view of a recording (`scene_place`; MAP §VI).
 
     The scene at rest over `rest_s` seconds ending `margin` frames before the detected start (not
@@ -347,6 +368,7 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
         min_px_320: `scene_place`'s min_px for a 320 x 240 frame, scaled with the frame's size.
         radius_px_320: `scene_place`'s radius_px for a 320 x 240 frame, scaled with the frame's width.
         table_z: the table top's height (world m).
+        table_xy: the table top's extent (`scene_place`).
 
     Returns:
         A function (movement start, end, objects_xy (K, 2), target) -> `ScenePlace`.
@@ -371,6 +393,6 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
         if b1 <= b0 or a0 >= n_frames:
             return _not_found(-1, "no frame at rest before or after the movement")
         return scene_place(frames[b0:b1], frames[a0:], P, objects_xy, target, table_z, height, min_px=min_px,
-                           radius_px=radius)
+                           radius_px=radius, table_xy=table_xy)
 
     return read
