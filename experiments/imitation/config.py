@@ -51,8 +51,9 @@ class Config:
     # the tracked hand at the grasp moment (0: from the left view; the window above then does not apply)
     fovea_px: int = 0
     fovea_fov_deg: float = 12.0
-    # the class from the "demonstrations" crops: eq. 3's kNN ("knn") or a convnet trained on them ("cnn",
-    # `lfd_jax.grasp.fit_convnet`, grasp_cnn_epochs passes)
+    # the class from the "demonstrations" crops: eq. 3's kNN ("knn") or a convnet trained on them
+    # (`lfd_jax.grasp.fit_convnet`, grasp_cnn_epochs passes): on the masked hand crops ("cnn") or on the unmasked
+    # boxes around the hand ("scene_cnn", the grasp study's best preset's input)
     grasp_classifier: str = "knn"
     grasp_cnn_epochs: int = 40
     # the kNN's distance on the "demonstrations" crops: HOG's ("none", the paper's) or after a whitened LDA fitted on
@@ -163,6 +164,7 @@ VALIDATION_SEED = 1000
 PRESETS = {
     "quick": {"video_preset": "quick", "n_demos": 4, "n_videos": 1, "n_validation": 2, "train_repetitions": 3,
               "phmm_iter": 10, "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,),
-              "grasp_database": "demonstrations", "fovea_px": 128, "grasp_train_demos": 1000, "grasp_metric": "lda"},
+              "grasp_database": "demonstrations", "fovea_px": 128, "grasp_train_demos": 1000, "grasp_metric": "lda",
+              "grasp_classifier": "cnn"},
     "paper": {},
 }
