@@ -72,3 +72,21 @@ def test_a_pointing_s_object_is_the_likeliest_of_the_known_ones(online):
         segment = movement(rng, 0, phi)
         loglik = [float(P.phmm_log_likelihood(point, segment, p)[0]) for p in phis]
         assert im.likeliest_object(point, segment, objects_xy, online.options.max_frames) == int(np.argmax(loglik)) == i
+
+
+
+def test_a_hand_lost_between_two_detected_parts_does_not_split_the_movement(online, monkeypatch):
+    # the detector ends an event where the lost hand's held position stands still (a carried object hides
+    # it) and finds the rest later: lost frames are no rest, measured still frames are
+    rng = np.random.default_rng(6)
+    move = movement(rng, 1, np.array([0.5, 0.5]))
+    stream = np.concatenate([np.repeat(REST[None], START, 0), move, np.repeat(REST[None], 30, 0)])
+    parts = ((START, START + 8), (START + 19, START + 28))  # 10 frames between them
+    events = P.OnlineEvents(np.ones(2, bool), *(np.array(v, np.int32) for v in zip(*parts)),
+                            np.array([p[1] + 3 for p in parts], np.int32), np.ones(2, np.int32), np.zeros((2, 2)),
+                            np.zeros((2, 2)))
+    monkeypatch.setattr(P, "run_online", lambda rec, x: events)
+    measured = np.ones(len(stream), bool)
+    assert im.movement(online, stream, merge_gap=6, measured=measured)[2:] == parts[1]  # the longer part
+    measured[parts[0][1] + 1:parts[1][0]] = False
+    assert im.movement(online, stream, merge_gap=6, measured=measured)[2:] == (parts[0][0], parts[1][1])

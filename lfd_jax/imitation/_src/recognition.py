@@ -191,16 +191,17 @@ def movement(rec_online, stream: np.ndarray, merge_gap: int, area: TableArea = T
              measured: np.ndarray | None = None):
     """The demonstrated movement in a stream (PHMM, BMVC §5.4 online detection; eq. 3 recognition).
 
-    The online detector's events that a class explains, merged where fewer than `merge_gap` frames lie
-    between them (a pointing hold or a put-down ends a detected movement early; the PHMMs model the
-    whole one), the merged frames recognised once more (class and φ). A movement still under way when
-    the stream stops (the detector ends one only after the hand has been still for its window) counts
-    as ended at the last measured frame.
+    The online detector's events that a class explains, merged where fewer than `merge_gap` measured
+    frames lie between them (a pointing hold or a put-down ends a detected movement early, and so does
+    a hand lost behind the object it carries: the PHMMs model the whole movement, and only a measured
+    frame shows the hand at rest), the merged frames recognised once more (class and φ). A movement still
+    under way when the stream stops (the detector ends one only after the hand has been still for its
+    window) counts as ended at the last measured frame.
 
     Args:
         rec_online: the `recognizer`.
         stream: (T, 3) the recogniser's input (`stream_of`).
-        merge_gap: the largest gap (frames) between events merged into one movement.
+        merge_gap: the largest gap (measured frames) between events merged into one movement.
         area: the table rectangle the PHMMs' grid spans.
         measured: (T,) bool, the frames actually tracked (`plausible`); None: every frame.
 
@@ -222,7 +223,9 @@ def movement(rec_online, stream: np.ndarray, merge_gap: int, area: TableArea = T
         starts, ends = np.r_[starts, running[0]], np.r_[ends, running[1]]
     if not starts.size:
         return None
-    group = np.cumsum(np.r_[0, starts[1:] - ends[:-1] > merge_gap])
+    seen = np.cumsum(np.r_[0, np.ones(len(stream), int) if measured is None else measured])  # measured before f
+    between = seen[starts[1:]] - seen[np.minimum(ends[:-1] + 1, len(stream))]  # measured frames between events
+    group = np.cumsum(np.r_[0, between >= merge_gap])
     lengths = np.bincount(group, weights=ends - starts + 1)
     best = int(np.argmax(lengths))
     s, e = int(starts[group == best].min()), int(ends[group == best].max())
