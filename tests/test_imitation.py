@@ -122,7 +122,7 @@ def test_hand_crop_window_keeps_a_skin_coloured_jacket_out():
     whole = hand_crop(frame[None], (67, 106), skin, 32)
     win = hand_crop(frame[None], (67, 106), skin, 32, window=8)
     assert whole.found.all() and win.found.all()
-    assert iou(whole.masks[0], hand[0]) < 0.65 and iou(win.masks[0], hand[0]) > 0.85  # the jacket no longer sets the box
+    assert iou(whole.masks[0], hand[0]) < 0.65 and iou(win.masks[0], hand[0]) > 0.85  # the jacket no longer sets it
     # the window at the frame's edge is padded with background, and the hand is still found there
     edge = np.full((120, 160, 3), (40, 90, 160), np.uint8)
     edge[0:10, 150:160] = (200, 140, 110)

@@ -132,8 +132,9 @@ def demonstration_crops(cfg: Config, settings: video.VideoSettings, chroma_skin,
             raise ValueError(f"n: no hand visible at the pick-up of the {n} demonstrations")
         return tuple(np.concatenate(parts) for parts in zip(*(crops[i] for i in sorted(crops))))
 
-    *parts, grasps, index = _CROPS.get(compute, settings=settings, skin=chroma_skin, demos=demos, shifts=shifts, crop_size=crop_size,
-                      fovea=(cfg.fovea_px, cfg.fovea_fov_deg), window=crop_window(cfg, settings))
+    *parts, grasps, index = _CROPS.get(compute, settings=settings, skin=chroma_skin, demos=demos, shifts=shifts,
+                                       crop_size=crop_size, fovea=(cfg.fovea_px, cfg.fovea_fov_deg),
+                                       window=crop_window(cfg, settings))
     return Crops(*parts), grasps, index
 
 
