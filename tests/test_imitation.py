@@ -95,7 +95,7 @@ def test_bad_input_names_the_argument():
     with pytest.raises(ValueError, match="grasp_metric"):
         Config(grasp_metric="cosine")
     with pytest.raises(ValueError, match="grasp_metric"):  # LDA is fitted on the demonstrations' crops
-        Config(grasp_database="study", grasp_metric="lda")
+        Config(grasp_database="study", grasp_classifier="knn", grasp_metric="lda")
     with pytest.raises(ValueError, match="grasp_lda_shrinkage"):
         Config(grasp_lda_shrinkage=1.5)
     with pytest.raises(ValueError, match="robot_hand"):

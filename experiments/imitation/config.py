@@ -17,7 +17,7 @@ class Config:
     video_preset: str = "paper"          # experiments.data.video preset (resolution, frame rate, timing)
     n_persons: int = 4                   # persons of the video settings; the last n_skin_persons train the skin models
     n_skin_persons: int = 1
-    n_demos: int = 50                    # evaluated demonstrations
+    n_demos: int = 100                   # evaluated demonstrations
     n_videos: int = 4                    # side-by-side videos (the person | the robot) of the first n_videos of them
     n_validation: int = 6                # validation demonstrations (own seed): feature offset, noise, threshold
     pad_frames: int = 25                 # recordings padded to a multiple of this (one compilation per length)
@@ -44,12 +44,12 @@ class Config:
     grasp_database: str = "demonstrations"
     grasp_preset: str = "quick"
     grasp_db_pixels: int = 0
-    grasp_train_demos: int = 48
+    grasp_train_demos: int = 1000
     grasp_frames_s: tuple[float, ...] = (-0.24, -0.16, -0.08, 0.0, 0.08)   # crops around each pick-up
     grasp_window_frac: float = 0.1       # validation: skin within this fraction of the width of the hand (0: all)
     # the hand cropped from a foveal camera (`fovea`) of fovea_px x fovea_px pixels over fovea_fov_deg, turned to
     # the tracked hand at the grasp moment (0: from the left view; the window above then does not apply)
-    fovea_px: int = 0
+    fovea_px: int = 128
     fovea_fov_deg: float = 12.0
     # the class from the "demonstrations" crops: eq. 3's kNN ("knn") or a convnet trained on them
     # (`lfd_jax.grasp.fit_convnet`, grasp_cnn_epochs passes): on the masked hand crops ("cnn") or on the unmasked
@@ -57,16 +57,16 @@ class Config:
     # training demos, 150 transfers of a seed of their own, 4 crops each around the pick-up aimed at the rendered
     # hand): LDA kNN 0.41 per crop; "cnn" after 20 / 40 / 60 epochs 0.52 / 0.57 / 0.59; "scene_cnn" (40) 0.52; "cnn"
     # (40) on 2000 training demos 0.67, but in the loop (72 validation demonstrations with the robot) 20 of 36
-    # grasps and 54 tasks, as with 1000, for 5 more minutes of a cold `make demo`. The quick preset takes "cnn" at 40
+    # grasps and 54 tasks, as with 1000, for 5 more minutes of a cold `make demo`. Both presets take "cnn" at 40
     # epochs on 1000 demos (60 epochs trained in 430 s against 250 s, two cores shared, for two points)
-    grasp_classifier: str = "knn"
+    grasp_classifier: str = "cnn"
     grasp_cnn_epochs: int = 40
     # the kNN's distance on the "demonstrations" crops: HOG's ("none", the paper's) or after a whitened LDA fitted on
     # them ("lda", `hog_jax.fit_metric`, covariance shrinkage grasp_lda_shrinkage). Validation (quick preset, fovea,
     # one crop per transfer at its pick-up, aimed at the hand): 48 train demos with HOG's distance 13 of 72 right;
     # 300 / 1000 / 2000 demos (crops at -1..+2 frames) HOG 27 / 33 / 30, LDA 33 / 37 / 38; 1000 demos at the
     # preset's -2..+1 frames with LDA 44 of 72, and 75 of 144 other transfers (48 demos, HOG: 34 of 144)
-    grasp_metric: str = "none"
+    grasp_metric: str = "lda"
     grasp_lda_shrinkage: float = 0.5
     # robot (sim.task_controller)
     robot: bool = True
@@ -168,8 +168,6 @@ VALIDATION_SEED = 1000
 
 PRESETS = {
     "quick": {"video_preset": "quick", "n_demos": 4, "n_videos": 1, "n_validation": 2, "train_repetitions": 3,
-              "phmm_iter": 10, "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,),
-              "grasp_database": "demonstrations", "fovea_px": 128, "grasp_train_demos": 1000, "grasp_metric": "lda",
-              "grasp_classifier": "cnn"},
+              "phmm_iter": 10, "noise_sigmas_m": (0.05, 0.1), "online_thresholds_m": (0.08,)},
     "paper": {},
 }
