@@ -35,8 +35,8 @@ def assert_one_line_error(result: subprocess.CompletedProcess, *fragments: str) 
 
 
 # `python -m lfd_jax.cli ARGS` for several ARGS in one new process: each run as `-m` runs it (`runpy`,
-# `__main__`), its stdout, stderr and exit status kept apart. For the runs that end in the argument
-# parser (help, usage errors), which import nothing else: one Python start-up instead of one per run.
+# `__main__`), its stdout, stderr and exit status kept apart. For the runs that end in an error (help,
+# usage errors, bad files): one Python and JAX start-up instead of one per run.
 _RUNS = """
 import contextlib, io, json, runpy, sys
 results = []
@@ -62,6 +62,13 @@ def lfd_jax_runs(*commands) -> list[subprocess.CompletedProcess]:
     assert run.returncode == 0, run.stderr
     return [subprocess.CompletedProcess(["lfd-jax", *argv], code, out, err)
             for argv, (code, out, err) in zip(argvs, json.loads(run.stdout))]
+
+
+def assert_one_line_errors(cases: dict) -> None:
+    """Each argument tuple of `cases`, run in one process (`lfd_jax_runs`), ends in one line on stderr
+    with its fragment (`assert_one_line_error`)."""
+    for result, fragment in zip(lfd_jax_runs(*cases), cases.values()):
+        assert_one_line_error(result, fragment)
 
 
 HELP_COMMANDS = [(), ("grasp",), ("phmm",), ("phmm", "fit"), ("phmm", "recognize"), ("video",)]
@@ -156,16 +163,17 @@ def test_phmm_label_expression_and_config_file(marker_files, tmp_path):
 def test_phmm_bad_input(marker_files, fitted, tmp_path):
     train, model = marker_files / "train", fitted[1]
     (tmp_path / "empty").mkdir()
-    assert_one_line_error(lfd_jax("phmm", "recognize", tmp_path / "empty", train / "up" / "up1.trc"), "model.json")
-    assert_one_line_error(lfd_jax("phmm", "recognize", model, tmp_path / "missing.trc"), "no such file")
     wrong = tmp_path / "notes.txt"
     wrong.write_text("not markers\n")
-    assert_one_line_error(lfd_jax("phmm", "recognize", model, wrong), "expected a .csv")
     bad = tmp_path / "bad.json"
     bad.write_text('{"n_states": 3, "colour": "red"}')
-    assert_one_line_error(lfd_jax("phmm", "fit", train, "--out", tmp_path / "m2", "--config", bad), "colour")
-    assert_one_line_error(lfd_jax("phmm", "fit", train, "--out", tmp_path / "m3", "--n-states", 30), "n_frames")
-    assert_one_line_error(lfd_jax("phmm", "fit", train, "--out", tmp_path / "m4", "--label", "up"), "group")
+    cases = {("phmm", "recognize", tmp_path / "empty", train / "up" / "up1.trc"): "model.json",
+             ("phmm", "recognize", model, tmp_path / "missing.trc"): "no such file",
+             ("phmm", "recognize", model, wrong): "expected a .csv",
+             ("phmm", "fit", train, "--out", tmp_path / "m2", "--config", bad): "colour",
+             ("phmm", "fit", train, "--out", tmp_path / "m3", "--n-states", 30): "n_frames",
+             ("phmm", "fit", train, "--out", tmp_path / "m4", "--label", "up"): "group"}
+    assert_one_line_errors(cases)
 
 
 def write_skin_pixels(folder: Path) -> Path:
@@ -197,9 +205,9 @@ def test_grasp_on_two_photos(tmp_path):
     assert rows["hand.png"].rstrip().endswith("| found |")
     assert rows["empty.png"].rstrip().endswith("| not found (no hand) |")
     assert (tmp_path / "out" / "hand_grasp.png").is_file() and (tmp_path / "out" / "empty_grasp.png").is_file()
-    assert_one_line_error(lfd_jax("grasp", tmp_path / "hand.png", "--db", db, "--grasps", "1,7",
-                                  "--skin-data", skin_data), "grasps")
-    assert_one_line_error(lfd_jax("grasp", tmp_path / "missing.jpg", "--db", db), "no such file")
+    cases = {("grasp", tmp_path / "hand.png", "--db", db, "--grasps", "1,7", "--skin-data", skin_data): "grasps",
+             ("grasp", tmp_path / "missing.jpg", "--db", db): "no such file"}
+    assert_one_line_errors(cases)
 
 
 def write_clip(path: Path, n_frames: int = 16) -> Path:
@@ -229,8 +237,7 @@ def test_video_on_a_tiny_clip(tmp_path):
         assert (tmp_path / "out" / name).is_file(), name
     with open(tmp_path / "out" / "tracks.csv") as f:
         assert len(list(csv.DictReader(f))) == 16
-    assert_one_line_error(lfd_jax("video", tmp_path / "missing.mp4", "--out", tmp_path / "o"), "no such file")
-    assert_one_line_error(lfd_jax("video", clip, "--out", tmp_path / "o", "--skin-data", tmp_path / "none"),
-                          "skin_nonskin_uci.tsv")
-    assert_one_line_error(lfd_jax("video", clip, "--out", tmp_path / "o", "--max-frames", 8,
-                                  "--skin-data", skin_data), "at least 12")
+    cases = {("video", tmp_path / "missing.mp4", "--out", tmp_path / "o"): "no such file",
+             ("video", clip, "--out", tmp_path / "o", "--skin-data", tmp_path / "none"): "skin_nonskin_uci.tsv",
+             ("video", clip, "--out", tmp_path / "o", "--max-frames", 8, "--skin-data", skin_data): "at least 12"}
+    assert_one_line_errors(cases)
