@@ -138,6 +138,20 @@ def test_reader_takes_the_rest_frames_around_the_movement():
     assert not early.found and early.moved == -1
 
 
+def test_a_movement_to_the_recordings_end_is_read_only_as_still():
+    """The recording stops as the arm comes back: its last frames show a pointing's scene still; after a
+    transfer they are not read for a place (the hand may still be on the object)."""
+    P = _camera()
+    objects = np.array([STILL_XY, (-0.2, -0.45)])
+    for new_xy, still in (((-0.2, -0.45), True), ((0.05, -0.30), False)):
+        before, after = _frames(P, (-0.2, -0.45), new_xy, n=10)
+        frames = np.concatenate([before, np.repeat(after[:1] // 2, 20, axis=0), after[:5]])
+        read = place_reader(frames, P, fps=10.0, first_frame=0, margin=2, rest_s=0.5, height=0.05, table_z=TABLE_Z)
+        res = read(12, len(frames) - 1, objects, 1)
+        assert res.still == still and res.moved == -1 and not res.found
+        assert read(12, len(frames) - 3, objects, 1).found != still  # with frames after it: the usual reading
+
+
 def test_bad_input_names_the_argument():
     P = _camera()
     before, after = _frames(P, (-0.2, -0.45), (0.05, -0.30), n=2)

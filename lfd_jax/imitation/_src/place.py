@@ -356,6 +356,9 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
     before `first_frame`; the detected start can be late by the online detector's window), and over the
     last `rest_s` seconds of the recording after the detected end (at least one frame each: at 10 fps a
     person sits still for a few frames before reaching, and tracking starts only as they sit down).
+    A movement detected up to the recording's last frame (the recording stopped as the arm came back)
+    has no frame after it: the last `rest_s` seconds then count only where they show the scene still
+    (a pointing), as every moved object's old view changes; else not found.
 
     Args:
         frames: (T, H, W, 3) uint8 frames of the view.
@@ -389,10 +392,17 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
     def read(start: int, end: int, objects_xy: np.ndarray, target: int) -> ScenePlace:
         b1 = start - margin
         b0 = max(first_frame, b1 - span)
-        a0 = max(end + 1, n_frames - span)
-        if b1 <= b0 or a0 >= n_frames:
-            return _not_found(-1, "no frame at rest before or after the movement")
-        return scene_place(frames[b0:b1], frames[a0:], P, objects_xy, target, table_z, height, min_px=min_px,
-                           radius_px=radius, table_xy=table_xy)
+        if b1 <= b0:
+            return _not_found(-1, "no frame at rest before the movement")
+        place = lambda after: scene_place(frames[b0:b1], after, P, objects_xy, target, table_z, height,  # noqa: E731
+                                          min_px=min_px, radius_px=radius, table_xy=table_xy)
+        if end + 1 < n_frames:
+            return place(frames[max(end + 1, n_frames - span):])
+        # The movement runs to the recording's end (the arm still returning): its last frames can show
+        # that nothing was moved, never where something went (the hand may still hold it).
+        last = place(frames[n_frames - span:])
+        if last.still:
+            return last
+        return _not_found(-1, "no frame at rest after the movement, and its last frames do not show the scene still")
 
     return read
