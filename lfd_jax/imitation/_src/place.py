@@ -394,13 +394,17 @@ def place_reader(frames: np.ndarray, P: np.ndarray, fps: float, first_frame: int
         b0 = max(first_frame, b1 - span)
         if b1 <= b0:
             return _not_found(-1, "no frame at rest before the movement")
-        place = lambda after: scene_place(frames[b0:b1], after, P, objects_xy, target, table_z, height,  # noqa: E731
-                                          min_px=min_px, radius_px=radius, table_xy=table_xy)
+
+        def place(after: np.ndarray) -> ScenePlace:
+            return scene_place(frames[b0:b1], after, P, objects_xy, target, table_z, height, min_px=min_px,
+                               radius_px=radius, table_xy=table_xy)
+
         if end + 1 < n_frames:
             return place(frames[max(end + 1, n_frames - span):])
-        # The movement runs to the recording's end (the arm still returning): its last frames can show
-        # that nothing was moved, never where something went (the hand may still hold it).
-        last = place(frames[n_frames - span:])
+        # The movement runs to the recording's end (the arm still returning): its last frames, none of the
+        # frames at rest before it, can show that nothing was moved, never where something went (the hand
+        # may still hold it).
+        last = place(frames[max(b1, n_frames - span):])
         if last.still:
             return last
         return _not_found(-1, "no frame at rest after the movement, and its last frames do not show the scene still")
