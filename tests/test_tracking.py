@@ -437,3 +437,22 @@ def test_a_coasting_track_takes_the_hand_that_reappears_beyond_its_gate():
     np.testing.assert_allclose(tr.position[0, 8, 1], hand[8], atol=1e-4)  # taken as it reappears
     assert np.linalg.norm(tr.position[0, 8:, 1] - hand[8:], axis=-1).max() < 1.5
     np.testing.assert_allclose(tr.position[0, 6:, 0], np.broadcast_to([36.0, 14.0], (T - 6, 2)), atol=1e-4)  # face
+
+
+def test_a_lost_hand_is_not_retaken_from_the_other_arm():
+    """The right hand goes out of view (behind an object) and is lost while the other arm shows as two
+    blobs right of the face, one of them taken by the other hand's target: the lost right hand must not
+    take the free one, the free blob nearest its stale position (the imitation loop's hand read on the other
+    arm at a recording's end), and takes the hand when it reappears on its side."""
+    masks = np.zeros((4, T, H, W), bool)
+    hand = np.array([8.0, 30.0])
+    for i in range(T):  # the other arm beyond the coasting hand's gate
+        masks[:, i] = disc([32, 8], 4) | disc([50, 36], 3) | disc([58, 42], 2)  # face; the other hand, forearm
+        masks[:, i] |= disc(hand, 3) if i < 6 or i >= 18 else False
+    blobs = connected_blobs(masks, max_blobs=K)
+    tr = host(track(blobs, ("top", "left_of_first", "right_of_first"), TrackOptions(alpha=ALPHA, beta=BETA, min_init=3)))
+    assert tr.observed[0, :6, 1].all() and tr.lost[0, 12:18, 1].all()
+    assert (tr.blob[0, 6:18, 1] == -1).all()
+    assert tr.observed[0, 18:, 1].all()
+    np.testing.assert_allclose(tr.position[0, 18:, 1], np.broadcast_to(hand, (T - 18, 2)), atol=1e-3)
+    assert (tr.position[0, :, 2, 0] > 45).all()

@@ -33,7 +33,9 @@ components (`connected_blobs`: a label image and padded blob arrays, made before
    the nearest to their last position (a concealed one only within twice its gate, a coasting one within its
    gate times 1 + the frames since its last measurement: a constant-velocity prediction's error grows with
    them, and a track acquired on the first pixels of a rising hand, with no velocity and a small ellipse,
-   would otherwise coast until lost while the hand moves on beside it). Skin: init ("top", "left_of_first",
+   would otherwise coast until lost while the hand moves on beside it; a lost one with a side rule only
+   among the blobs on its side: a right hand lost behind an object would otherwise take a piece of the
+   other arm, the free blob nearest its stale position). Skin: init ("top", "left_of_first",
    "right_of_first") makes target 0 the face (the highest skin blob), target 1 the blob furthest left in the image and
    left of the face (the right hand of a person facing the camera) and target 2 the furthest right of
    the face (the other hand). The side matters where the right hand is out of view when tracking
@@ -354,7 +356,9 @@ def _step(opts: _Options, state: TrackState, frame):
         # grows with them; a fresh track's velocity is unknown, and a fast hand leaves a small blob's gate)
         allowed = free & (~concealed[m] | (nearest[m] <= 4.0 * opts.gate2))
         allowed = allowed & (~coasting[m] | (nearest[m] <= opts.gate2 * (1.0 + missed[m]) ** 2))
-        allowed = allowed & (state.acquired[m] | jnp.isfinite(rule))
+        # an untracked target (never acquired, or lost: its last position is stale) takes only a blob its rule
+        # admits: a lost right hand returns beyond the face's left, not as a piece of the other arm
+        allowed = allowed & ((state.acquired[m] & tracked[m]) | jnp.isfinite(rule))
         score = jnp.where(allowed, jnp.where(state.acquired[m], dist, rule), jnp.inf)
         k.append(jnp.argmin(score))
         seeking = (~tracked[m] & (~state.acquired[m] | opts.reacquire)) | concealed[m] | coasting[m]
