@@ -17,20 +17,12 @@ from experiments.data.oac_protocol import ProtocolOptions, evaluate, with_units
 from experiments.data.video.settings import SOURCE_PACKAGES
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.front import recording_objects
+from experiments.lfd_demonstration.in_hand import window_features
 from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, pipeline_features,
                                                     renderer_features, segment_frames)
 from lfd_common import Cache
 
 SOURCES = ("pipeline", "renderer")
-
-
-def cut_recording(rec: video.Recording, T: int) -> video.Recording:
-    """The recording's first T frames (every per-frame field cut; events, cameras and scalars kept)."""
-    n = len(rec.left)
-    per_frame = {f: getattr(rec, f)[:T] for f in rec._fields
-                 if isinstance(getattr(rec, f), np.ndarray) and getattr(rec, f).ndim and len(getattr(rec, f)) == n
-                 and not f.endswith(("_frames", "event_action", "event_object"))}
-    return rec._replace(**per_frame)
 
 
 # the settings that change a clip's features (not the tables' or the long recordings')
@@ -44,16 +36,28 @@ _FEATURE_FIELDS = ("seed", "video_preset", "n_persons", "n_skin_persons", "pad_f
 CLIP_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + (
     "experiments.lfd_demonstration.clips", "experiments.lfd_demonstration.features",
     "experiments.lfd_demonstration.front", "experiments.lfd_demonstration.config",
-    "experiments.lfd_demonstration.evaluate", "experiments.peers", "hog_jax")
+    "experiments.lfd_demonstration.evaluate", "experiments.lfd_demonstration.in_hand", "experiments.peers", "hog_jax",
+    "crf_jax")
 _CLIPS = Cache("lfd_clip_features", packages=CLIP_PACKAGES)
 
 
+class InHandFrames(NamedTuple):
+    """Training frames of the "object in hand" classifier (`in_hand`): the clip's person (N,), the
+    `in_hand.window_features` (N, D) of its tracked frames, and whether the hand held the object (N,)."""
+
+    person: np.ndarray
+    features: np.ndarray
+    held: np.ndarray
+
+
 def clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tuple[int, int, int],
-                  script) -> tuple[dict[str, FrameFeatures], bool]:
-    """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found): the
-    clip is cut after its put-down (the front end is causal), run through `recording_objects`; a clip
-    whose hand the front end never finds keeps zero pipeline features (flagged, not dropped). Cached
-    under `cache_dir("lfd_clip_features")` by the feature settings, the video settings (less the long
+                  script) -> tuple[dict[str, FrameFeatures], bool, InHandFrames | None]:
+    """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found, the
+    training frames of the "object in hand" classifier, `InHandFrames`): the whole clip runs through
+    `recording_objects` (the front end and the features are causal, so the OAC frames' features are
+    those of the clip cut after its put-down); a clip whose hand the front end never finds keeps zero
+    pipeline features and gives no training frames (flagged, not dropped). Cached under
+    `cache_dir("lfd_clip_features")` by the feature settings, the video settings (less the long
     recordings'), the spec, the clip, its script, the skin model and the source of `CLIP_PACKAGES`."""
     video_fields = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("n_scripts", "script_oacs")}
     return _CLIPS.get(lambda: _clip_features(cfg, settings, skin_model, spec, key, script),
@@ -62,28 +66,32 @@ def clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tup
 
 
 def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tuple[int, int, int],
-                   script) -> tuple[dict[str, FrameFeatures], bool]:
+                   script) -> tuple[dict[str, FrameFeatures], bool, InHandFrames | None]:
     """`clip_features`, computed."""
     rec = video.render_recording(settings, script, progress=progress)
     a, b = int(rec.pickup_frames[0]), int(rec.putdown_frames[0]) + 1
-    rec = cut_recording(rec, b)
     frames = segment_frames(a, b, settings.fps, cfg.feature_fps)
     pick = lambda f: FrameFeatures(*(np.asarray(x)[frames] for x in f))  # noqa: E731
     half = (round(cfg.half_window * cfg.scale(settings)),) * 2
     renderer = pick(renderer_features(rec, video.grey(rec.left), half, spec))
     person, cls, rep = key
     out = recording_objects(cfg, settings, rec, skin_model, 10_000 + 1000 * person + 100 * cls + rep, peer=False)
-    pipeline = (pick(pipeline_features(out, spec)) if out is not None
-                else FrameFeatures(*(np.zeros_like(x) for x in renderer)))
-    return {"pipeline": pipeline, "renderer": renderer}, out is not None
+    if out is None:
+        return {"pipeline": FrameFeatures(*(np.zeros_like(x) for x in renderer)), "renderer": renderer}, False, None
+    tracked = np.flatnonzero(out["tracked"])
+    features = window_features(out["grey"][tracked], out["hand"][tracked], out["half"])
+    in_hand = InHandFrames(np.full(tracked.size, person), features, np.asarray(rec.object)[tracked] >= 0)
+    return {"pipeline": pick(pipeline_features(out, spec)), "renderer": renderer}, True, in_hand
 
 
 class ClipSet(NamedTuple):
-    """The clips' features per source as `OACData`, and how many clips lost the hand."""
+    """The clips' features per source as `OACData`, how many clips lost the hand, and the clips'
+    `InHandFrames` concatenated (None when every clip lost it)."""
 
     data: dict
     hand_lost: int
     n_clips: int
+    in_hand: InHandFrames | None
 
 
 def clip_stage(cfg: Config, settings, skin_model, spec: FeatureSpec) -> ClipSet:
@@ -92,16 +100,18 @@ def clip_stage(cfg: Config, settings, skin_model, spec: FeatureSpec) -> ClipSet:
     persons = cfg.clip_persons(settings)
     jobs = sorted(((p, c, r, s) for p, c, r, s in video.clip_scripts(settings)
                    if p in persons and r < cfg.clip_repetitions), key=lambda job: (job[2], job[0], job[1]))
-    feats, meta, lost = {s: [] for s in SOURCES}, [], 0
+    feats, meta, lost, in_hand = {s: [] for s in SOURCES}, [], 0, []
     for p, c, r, script in progress(jobs, desc="OAC clips through the front end"):
-        f, found = clip_features(cfg, settings, skin_model, spec, (p, c, r), script)
+        f, found, frames = clip_features(cfg, settings, skin_model, spec, (p, c, r), script)
         lost += not found
         for s in SOURCES:
             feats[s].append(f[s])
         meta.append((c, c, p, r))
+        in_hand += [frames] if frames is not None else []
     meta = np.array(meta, int).reshape(-1, 4)
     data = {s: as_oac_data(feats[s], *meta.T) for s in SOURCES}
-    return ClipSet(data, lost, len(jobs))
+    frames = InHandFrames(*(np.concatenate(x) for x in zip(*in_hand))) if in_hand else None
+    return ClipSet(data, lost, len(jobs), frames)
 
 
 def crf_config(cfg: Config, n_persons: int) -> ProtocolOptions:

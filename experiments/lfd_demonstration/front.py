@@ -105,4 +105,4 @@ def recording_objects(cfg: Config, settings, rec, skin_model, index: int, peer: 
             "peer": gate(*peer_object_masks(gl, gr, hand_l, hand_r, removed, half)) if peer else None,
             "truth": truth_windows(rec.left_labels, hand_l, half), "tracked": tracked,
             "decided": np.asarray(ours.hand_moved) & tracked, "objects": ours, "sigma_px": sigma, "start": start,
-            "grey": gl, "half": half, "hand": hand_l, "labels": labels, "positions": positions}
+            "grey": gl, "half": half, "hand": hand_l, "hand_right": hand_r, "labels": labels, "positions": positions}

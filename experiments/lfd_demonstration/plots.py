@@ -70,9 +70,9 @@ def _period_labels(ax, first, fps: float) -> None:
 
 
 def object_in_hand(first, fps: float) -> plt.Figure:
-    """Fig. 8: per frame the raw "object in hand" (a mask found, where the hand moved), the filtered
-    classification with its periods and each period's CHCRF label, and the truth, over the first long
-    recording."""
+    """Fig. 8: per frame the raw "object in hand" (of the hand-window classifier where it ran, else a
+    mask found where the hand moved), the filtered classification with its periods and each period's
+    CHCRF label, and the truth, over the first long recording."""
     rec, periods = first["rec"], first["periods"]
     T = len(first["raw"])
     truth = np.zeros(T, bool)
@@ -84,9 +84,11 @@ def object_in_hand(first, fps: float) -> plt.Figure:
     ax.fill_between(t, 1.05, 1.05 + 0.8 * periods.in_hand, step="post", color="tab:blue", alpha=0.7,
                     label="filtered (periods)")
     raw = first["raw"] & first["decided"]
-    ax.fill_between(t, 0, 0.8 * raw, step="post", color="tab:orange", alpha=0.7, label="raw (mask found, hand moved)")
+    by_classifier = first["source"] == "classifier"
+    ax.fill_between(t, 0, 0.8 * raw, step="post", color="tab:orange", alpha=0.7,
+                    label="raw (hand-window classifier)" if by_classifier else "raw (mask found, hand moved)")
     ax.fill_between(t, 0, 0.8 * (~first["decided"]), step="post", color="0.85", alpha=0.7,
-                    label="undecided (hand still or lost)")
+                    label="undecided (hand lost)" if by_classifier else "undecided (hand still or lost)")
     oracle = first["labels"]["true"] if first.get("labels") else None
     for k, (a, b, act, obj) in enumerate(zip(rec.pickup_frames, rec.putdown_frames, rec.event_action,
                                              rec.event_object)):

@@ -14,9 +14,10 @@ from experiments.config import StageResult, parse_config, progress
 from experiments.data import video
 from experiments.lfd_demonstration import plots
 from experiments.lfd_demonstration.front import recording_objects
-from experiments.lfd_demonstration.clips import clip_stage, table_metrics, tables
+from experiments.lfd_demonstration.clips import ClipSet, InHandFrames, clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
 from experiments.lfd_demonstration.features import FeatureSpec, pipeline_features
+from experiments.lfd_demonstration.in_hand import fit_in_hand, in_hand_probability, window_features
 from experiments.lfd_demonstration.labelling import label_metrics, label_periods
 from experiments.lfd_demonstration.evaluate import EventMatch, held_object_motion, iou_by_bin, match_events, pooled_iou
 from experiments.lfd_demonstration.report import report
@@ -59,13 +60,28 @@ def recording_labels(cfg: Config, settings, clips, rec, out: dict, periods, matc
             "true": label(rec.pickup_frames, np.asarray(rec.putdown_frames) + 1), "true_truth": truth}
 
 
-def object_stage(cfg: Config, settings, skin_model, clips=None,
+def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict) -> np.ndarray | None:
+    """(T,) "object in hand" of a recording's frames from the classifier (`in_hand`) trained on the
+    clips of the other persons (tracked frames only); None without such clips or where they show one
+    class only (flagged: the classifier's events are then all missed)."""
+    if frames is None:
+        return None
+    others = frames.person != person
+    if np.unique(frames.held[others]).size < 2:
+        return None
+    classifier = fit_in_hand(frames.features[others], frames.held[others])
+    probability = in_hand_probability(classifier, window_features(out["grey"], out["hand"], out["half"]))
+    return (probability > 0.5) & out["tracked"]
+
+
+def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None,
                  spec: FeatureSpec = FeatureSpec()) -> tuple[dict, StageResult]:
-    """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events; with
-    `clips` (the clips' pipeline features, `OACData`), the CHCRF label and Z(x) of each OAC found."""
+    """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events of the
+    paper's rule (a mask found: ours, the peer) and of the hand-window classifier (`in_hand`, with
+    `clips`); with `clips`, the CHCRF label and Z(x) of each OAC the classifier found."""
     radius = max(1, round(cfg.filter_radius * settings.fps / 25.0))
     sums = {"ours": np.zeros(2, int), "peer": np.zeros(2, int)}
-    events = {"ours": [], "peer": []}
+    events = {"ours": [], "peer": [], "classifier": []}
     rows, first, labelled = [], None, []
     windows = {"ours": [], "peer": [], "truth": [], "depth": [], "rotation": []}  # for the failure cases
     for i, script in enumerate(progress(video.long_scripts(settings), desc="long recordings")):
@@ -83,25 +99,37 @@ def object_stage(cfg: Config, settings, skin_model, clips=None,
         for key, value in (("ours", out["ours"][0]), ("peer", out["peer"][0]), ("truth", out["truth"]),
                            ("depth", np.abs(depth)), ("rotation", rotation)):
             windows[key].append(value)
-        for name in events:
-            masks, found = out[name]
-            counts = pooled_iou(masks, out["truth"])
+        classified = classifier_in_hand(clips and clips.in_hand, int(script.person), out)
+        found_by = {"ours": (out["ours"][1], out["decided"]), "peer": (out["peer"][1], out["decided"]),
+                    "classifier": (classified, out["tracked"])}
+        for name in ("ours", "peer"):
+            counts = pooled_iou(out[name][0], out["truth"])
             sums[name] += counts
-            periods = hog_jax.video.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, out["decided"])
+            row[f"{name}_iou"] = counts[0] / max(counts[1], 1)
+        segmented = {}
+        for name, (found, decided) in found_by.items():
+            if found is None:
+                events[name].append(EventMatch(np.zeros(0, int), np.zeros(0, int), len(rec.pickup_frames), 0))
+                continue
+            periods = hog_jax.video.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, decided)
             match = match_events(rec.pickup_frames, rec.putdown_frames, periods.pickup, periods.putdown)
             events[name].append(match)
-            row.update({f"{name}_iou": counts[0] / max(counts[1], 1), f"{name}_missed": match.missed,
-                        f"{name}_spurious": match.spurious, f"{name}_found_events": int(len(periods.pickup))})
-            if name == "ours" and clips is not None:
-                labelled.append(recording_labels(cfg, settings, clips, rec, out, periods, match, spec))
-            if name == "ours" and first is None:
-                first = {**out, "rec": rec, "masks": masks, "raw": found, "periods": periods,
-                         "labels": labelled[-1] if labelled else None}
+            segmented[name] = (found, decided, periods, match)
+            row.update({f"{name}_missed": match.missed, f"{name}_spurious": match.spurious,
+                        f"{name}_found_events": int(len(periods.pickup))})
+        source = "classifier" if "classifier" in segmented else "ours"  # the periods the CHCRF labels
+        found, decided, periods, match = segmented[source]
+        if clips is not None:
+            labelled.append(recording_labels(cfg, settings, clips.data["pipeline"], rec, out, periods, match, spec))
+        if first is None:
+            first = {**out, "rec": rec, "masks": out["ours"][0], "raw": found, "decided": decided, "periods": periods,
+                     "source": source, "labels": labelled[-1] if labelled else None}
     metrics = {"object_mask_iou": sums["ours"][0] / max(sums["ours"][1], 1),
                "object_mask_iou_peer": sums["peer"][0] / max(sums["peer"][1], 1), "n_recordings": len(rows),
                "events_true": sum(r["true_events"] for r in rows),
                "recordings": {str(k): r for k, r in enumerate(rows)},
-               **_event_metrics(events["ours"], ""), **_event_metrics(events["peer"], "peer_")}
+               **_event_metrics(events["ours"], ""), **_event_metrics(events["peer"], "peer_"),
+               **_event_metrics(events["classifier"], "classifier_")}
     if first is None:
         return metrics, StageResult(metrics)
     failure = failure_cases({k: np.concatenate(v) for k, v in windows.items()})
@@ -127,7 +155,7 @@ def main(argv=None) -> dict:
     if cfg.clip_repetitions:
         clip_set = clip_stage(cfg, settings, skin_model, spec)
         clip_metrics = table_metrics(tables(cfg, clip_set), clip_set)
-    metrics, result = object_stage(cfg, settings, skin_model, clip_set and clip_set.data["pipeline"], spec)
+    metrics, result = object_stage(cfg, settings, skin_model, clip_set, spec)
     metrics.update(clip_metrics)
     runtime = time.perf_counter() - start_s
     written = run.write_stages([result], header=report(cfg, settings, metrics, runtime), runtime_s=runtime,

@@ -1,0 +1,55 @@
+"""experiments.lfd_demonstration.in_hand: the hand-window features against windows cut by hand, the
+decision at equal priors, and a held object told from an empty hand on synthetic frames."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import hog_jax
+from experiments.lfd_demonstration.in_hand import (IN_HAND_HOG, WINDOW_SCALE, fit_in_hand, in_hand_probability,
+                                                   window_features)
+
+HALF = (8, 8)
+SIDE = 2 * round(WINDOW_SCALE * HALF[0]) + 1
+
+
+def test_window_features_are_the_hog_of_the_windows_cut_by_hand():
+    rng = np.random.default_rng(0)
+    grey = rng.integers(0, 256, size=(2, 60, 80)).astype(np.uint8)
+    centres = np.array([[30.0, 40.0], [5.0, 70.0]])  # the second window leaves the image: zeros there
+    reach = round(WINDOW_SCALE * HALF[0])
+    padded = np.pad(grey.astype(np.float32), ((0, 0), (reach, reach), (reach, reach)))
+    cut = np.stack([padded[t, r:r + SIDE, c:c + SIDE] for t, (r, c) in enumerate(centres.astype(int))])
+    expected = np.asarray(hog_jax.hog(cut + 1.0, IN_HAND_HOG))
+    np.testing.assert_allclose(window_features(grey, centres, HALF), expected, rtol=1e-6, atol=1e-7)
+
+
+def _frames(rng, held: np.ndarray) -> np.ndarray:
+    """Noise frames; a held object is a dark disc beside the window's centre."""
+    grey = rng.normal(150.0, 10.0, size=(held.size, 48, 48))
+    rows, cols = np.mgrid[:48, :48]
+    disc = np.hypot(rows - 20, cols - 30) < 7
+    grey[held] = np.where(disc, 40.0, grey[held])
+    return np.clip(grey, 0, 255)
+
+
+def test_a_held_object_is_told_from_an_empty_hand_on_new_frames():
+    rng = np.random.default_rng(1)
+    centres = np.full((40, 2), 24.0)
+    train = rng.random(40) < 0.75  # mostly held, as the clips are
+    classifier = fit_in_hand(window_features(_frames(rng, train), centres, HALF), train)
+    test = np.arange(40) % 2 == 0
+    probability = in_hand_probability(classifier, window_features(_frames(rng, test), centres, HALF))
+    assert np.all(probability[test] > 0.5) and np.all(probability[~test] < 0.5)
+
+
+def test_uninformative_features_give_even_odds_whatever_the_training_prior():
+    held = np.arange(40) < 30  # 75 % held
+    classifier = fit_in_hand(np.ones((40, 3)), held)
+    assert classifier.log_prior_odds == pytest.approx(np.log(3.0))
+    np.testing.assert_allclose(in_hand_probability(classifier, np.ones((5, 3))), 0.5, atol=1e-3)
+
+
+def test_one_class_only_is_refused():
+    with pytest.raises(ValueError, match="held"):
+        fit_in_hand(np.ones((4, 3)), np.ones(4, bool))
