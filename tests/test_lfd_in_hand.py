@@ -1,4 +1,4 @@
-"""experiments.lfd_demonstration.in_hand: the hand-window features against windows cut by hand, the
+"""experiments.lfd_demonstration.in_hand and its features: the hand-window features against windows cut by hand, the
 decision at equal priors, and a held object told from an empty hand on synthetic frames."""
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import hog_jax
-from experiments.lfd_demonstration.in_hand import (IN_HAND_HOG, WINDOW_SCALE, fit_in_hand, in_hand_probability,
-                                                   window_features)
+from experiments.lfd_demonstration.features import IN_HAND_HOG, WINDOW_SCALE, hand_window_features
+from experiments.lfd_demonstration.in_hand import fit_in_hand, in_hand_probability
 
 HALF = (8, 8)
 SIDE = 2 * round(WINDOW_SCALE * HALF[0]) + 1
@@ -21,7 +21,7 @@ def test_window_features_are_the_hog_of_the_windows_cut_by_hand():
     padded = np.pad(grey.astype(np.float32), ((0, 0), (reach, reach), (reach, reach)))
     cut = np.stack([padded[t, r:r + SIDE, c:c + SIDE] for t, (r, c) in enumerate(centres.astype(int))])
     expected = np.asarray(hog_jax.hog(cut + 1.0, IN_HAND_HOG))
-    np.testing.assert_allclose(window_features(grey, centres, HALF), expected, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(hand_window_features(grey, centres, HALF), expected, rtol=1e-6, atol=1e-7)
 
 
 def _frames(rng, held: np.ndarray) -> np.ndarray:
@@ -37,9 +37,9 @@ def test_a_held_object_is_told_from_an_empty_hand_on_new_frames():
     rng = np.random.default_rng(1)
     centres = np.full((40, 2), 24.0)
     train = rng.random(40) < 0.75  # mostly held, as the clips are
-    classifier = fit_in_hand(window_features(_frames(rng, train), centres, HALF), train)
+    classifier = fit_in_hand(hand_window_features(_frames(rng, train), centres, HALF), train)
     test = np.arange(40) % 2 == 0
-    probability = in_hand_probability(classifier, window_features(_frames(rng, test), centres, HALF))
+    probability = in_hand_probability(classifier, hand_window_features(_frames(rng, test), centres, HALF))
     assert np.all(probability[test] > 0.5) and np.all(probability[~test] < 0.5)
 
 

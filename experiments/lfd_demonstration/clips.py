@@ -17,9 +17,8 @@ from experiments.data.oac_protocol import ProtocolOptions, evaluate, with_units
 from experiments.data.video.settings import SOURCE_PACKAGES
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.front import recording_objects
-from experiments.lfd_demonstration.in_hand import window_features
-from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, pipeline_features,
-                                                    renderer_features, segment_frames)
+from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, hand_window_features,
+                                                    pipeline_features, renderer_features, segment_frames)
 from lfd_common import Cache
 
 SOURCES = ("pipeline", "renderer")
@@ -36,14 +35,13 @@ _FEATURE_FIELDS = ("seed", "video_preset", "n_persons", "n_skin_persons", "pad_f
 CLIP_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + (
     "experiments.lfd_demonstration.clips", "experiments.lfd_demonstration.features",
     "experiments.lfd_demonstration.front", "experiments.lfd_demonstration.config",
-    "experiments.lfd_demonstration.evaluate", "experiments.lfd_demonstration.in_hand", "experiments.peers", "hog_jax",
-    "crf_jax")
+    "experiments.lfd_demonstration.evaluate", "experiments.peers", "hog_jax")
 _CLIPS = Cache("lfd_clip_features", packages=CLIP_PACKAGES)
 
 
 class InHandFrames(NamedTuple):
     """Training frames of the "object in hand" classifier (`in_hand`): the clip's person (N,), the
-    `in_hand.window_features` (N, D) of its tracked frames, and whether the hand held the object (N,)."""
+    `features.hand_window_features` (N, D) of its tracked frames, and whether the hand held the object (N,)."""
 
     person: np.ndarray
     features: np.ndarray
@@ -79,7 +77,7 @@ def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tu
     if out is None:
         return {"pipeline": FrameFeatures(*(np.zeros_like(x) for x in renderer)), "renderer": renderer}, False, None
     tracked = np.flatnonzero(out["tracked"])
-    features = window_features(out["grey"][tracked], out["hand"][tracked], out["half"])
+    features = hand_window_features(out["grey"][tracked], out["hand"][tracked], out["half"])
     in_hand = InHandFrames(np.full(tracked.size, person), features, np.asarray(rec.object)[tracked] >= 0)
     return {"pipeline": pick(pipeline_features(out, spec)), "renderer": renderer}, True, in_hand
 

@@ -22,10 +22,16 @@ from experiments.data.oac import OACData, masked_hog
 from experiments.data.video import LABELS, OBJECTS, TRACKED
 from hog_jax.video import HAND, held
 from hog_jax.video import SKIN
-from lfd_common import check_int, check_real
+from lfd_common import as_array, check_int, check_real
 
 TRUE_HAND, TRUE_FACE = TRACKED.index("hand"), TRACKED.index("face")  # the renderer's ellipses
 TRUE_HAND_SKIN, TRUE_OBJECT = LABELS.index("hand skin"), LABELS.index(OBJECTS[0])  # label maps: the held object k
+
+
+# Orientation bins and pyramid levels chosen on validation recordings (seeds 1-3 of the quick preset):
+# four levels of eight bins ahead of three levels, of a 4 x 4 grid and of global normalisation.
+IN_HAND_HOG = hog_jax.HOGConfig(n_bins=8, n_levels=4, normalize="cell")
+WINDOW_SCALE = 2.0  # the window's half size over the object window's (1.5 and 3 were worse on validation)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -154,3 +160,13 @@ def renderer_features(rec, grey: np.ndarray, half: tuple[int, int], spec: Featur
                           windows(rec.left_labels >= TRUE_OBJECT, hand_rc, half, fill=False),
                           centre[:, TRUE_HAND] - centre[:, TRUE_FACE], rec.hand_cam - rec.face_cam,
                           found[:, TRUE_HAND] & found[:, TRUE_FACE], spec)
+
+
+def hand_window_features(grey: np.ndarray, centres: np.ndarray, half: tuple[int, int]) -> np.ndarray:
+    """(T, D) HOG (`IN_HAND_HOG`) of the "object in hand" classifier (`in_hand`): the windows of `WINDOW_SCALE` times the half size `half` around
+    the hand positions centres (T, 2) (row, column) of the grey frames (T, H, W); pixels outside the
+    image are 0. One is added to every pixel: a window wholly outside the image is then not an all-zero
+    image (which `hog_jax.hog` refuses), and no gradient changes."""
+    big = tuple(round(WINDOW_SCALE * h) for h in half)
+    frames = windows(as_array(grey, "grey", ndim=3), as_array(centres, "centres", shape=(len(grey), 2)), big, fill=0)
+    return np.asarray(hog_jax.hog(frames.astype(np.float32) + 1.0, IN_HAND_HOG))

@@ -22,18 +22,10 @@ from typing import NamedTuple
 import numpy as np
 
 import crf_jax
-import hog_jax
-from experiments.lfd_demonstration.features import windows
 from lfd_common import as_array, check_real
 
-# Orientation bins and pyramid levels chosen on validation recordings (seeds 1-3 of the quick preset):
-# four levels of eight bins ahead of three levels, of a 4 x 4 grid and of global normalisation.
-IN_HAND_HOG = hog_jax.HOGConfig(n_bins=8, n_levels=4, normalize="cell")
-WINDOW_SCALE = 2.0  # the window's half size over the object window's (1.5 and 3 were worse on validation)
-
-
 class InHandClassifier(NamedTuple):
-    """A logistic regression of "object in hand" on `window_features`.
+    """A logistic regression of "object in hand" on `features.hand_window_features`.
 
     Attributes:
         model: the `crf_jax.LinearModel` (classes: 0 empty hand, 1 object in hand).
@@ -42,16 +34,6 @@ class InHandClassifier(NamedTuple):
 
     model: crf_jax.LinearModel
     log_prior_odds: float
-
-
-def window_features(grey: np.ndarray, centres: np.ndarray, half: tuple[int, int]) -> np.ndarray:
-    """(T, D) HOG (`IN_HAND_HOG`) of the windows of `WINDOW_SCALE` times the half size `half` around
-    the hand positions centres (T, 2) (row, column) of the grey frames (T, H, W); pixels outside the
-    image are 0. One is added to every pixel: a window wholly outside the image is then not an all-zero
-    image (which `hog_jax.hog` refuses), and no gradient changes."""
-    big = tuple(round(WINDOW_SCALE * h) for h in half)
-    frames = windows(as_array(grey, "grey", ndim=3), as_array(centres, "centres", shape=(len(grey), 2)), big, fill=0)
-    return np.asarray(hog_jax.hog(frames.astype(np.float32) + 1.0, IN_HAND_HOG))
 
 
 def fit_in_hand(features: np.ndarray, held: np.ndarray, l2: float = 1.0) -> InHandClassifier:

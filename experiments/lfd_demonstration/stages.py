@@ -16,8 +16,8 @@ from experiments.lfd_demonstration import plots
 from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.clips import ClipSet, InHandFrames, clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
-from experiments.lfd_demonstration.features import FeatureSpec, pipeline_features
-from experiments.lfd_demonstration.in_hand import fit_in_hand, in_hand_probability, window_features
+from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features
+from experiments.lfd_demonstration.in_hand import fit_in_hand, in_hand_probability
 from experiments.lfd_demonstration.labelling import label_metrics, label_periods
 from experiments.lfd_demonstration.evaluate import EventMatch, held_object_motion, iou_by_bin, match_events, pooled_iou
 from experiments.lfd_demonstration.report import report
@@ -70,7 +70,7 @@ def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict) -> n
     if np.unique(frames.held[others]).size < 2:
         return None
     classifier = fit_in_hand(frames.features[others], frames.held[others])
-    probability = in_hand_probability(classifier, window_features(out["grey"], out["hand"], out["half"]))
+    probability = in_hand_probability(classifier, hand_window_features(out["grey"], out["hand"], out["half"]))
     return (probability > 0.5) & out["tracked"]
 
 
