@@ -52,9 +52,10 @@ def clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tup
                   script) -> tuple[dict[str, FrameFeatures], bool, InHandFrames | None]:
     """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found, the
     training frames of the "object in hand" classifier, `InHandFrames`): the whole clip runs through
-    `recording_objects` (the front end and the features are causal, so the OAC frames' features are
-    those of the clip cut after its put-down); a clip whose hand the front end never finds keeps zero
-    pipeline features and gives no training frames (flagged, not dropped). Cached under
+    `recording_objects`, the return to rest after the put-down included (the classifier needs empty-hand
+    frames on both sides of a period; sigma_m, the hand's width, is then the median over the whole clip, as
+    over a whole long recording); a clip whose hand the front end never finds keeps zero pipeline
+    features and gives no training frames (flagged, not dropped). Cached under
     `cache_dir("lfd_clip_features")` by the feature settings, the video settings (less the long
     recordings'), the spec, the clip, its script, the skin model and the source of `CLIP_PACKAGES`."""
     video_fields = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("n_scripts", "script_oacs")}
