@@ -6,40 +6,49 @@ import numpy as np
 import pytest
 
 import hog_jax
-from experiments.lfd_demonstration.features import IN_HAND_HOG, WINDOW_SCALE, hand_window_features
+from experiments.lfd_demonstration.features import IN_HAND_HOG, LABEL_GRID, WINDOW_SCALE, hand_window_features
+from hog_jax.video import OBJECT, PERSON, SKIN
 from experiments.lfd_demonstration.in_hand import fit_in_hand, in_hand_probability
 
 HALF = (8, 8)
 SIDE = 2 * round(WINDOW_SCALE * HALF[0]) + 1
 
 
-def test_window_features_are_the_hog_of_the_windows_cut_by_hand():
+def test_window_features_are_the_hog_and_label_fractions_of_the_windows_cut_by_hand():
     rng = np.random.default_rng(0)
     grey = rng.integers(0, 256, size=(2, 60, 80)).astype(np.uint8)
-    centres = np.array([[30.0, 40.0], [5.0, 70.0]])  # the second window leaves the image: zeros there
+    labels = rng.integers(0, 4, size=(2, 60, 80))
+    centres = np.array([[30.0, 40.0], [5.0, 70.0]])  # the second window leaves the image: grey 0, background
     reach = round(WINDOW_SCALE * HALF[0])
-    padded = np.pad(grey.astype(np.float32), ((0, 0), (reach, reach), (reach, reach)))
-    cut = np.stack([padded[t, r:r + SIDE, c:c + SIDE] for t, (r, c) in enumerate(centres.astype(int))])
-    expected = np.asarray(hog_jax.hog(cut + 1.0, IN_HAND_HOG))
-    np.testing.assert_allclose(hand_window_features(grey, centres, HALF), expected, rtol=1e-6, atol=1e-7)
+    pad = lambda x: np.pad(x, ((0, 0), (reach, reach), (reach, reach)))  # noqa: E731
+    cut = lambda x: np.stack([pad(x)[t, r:r + SIDE, c:c + SIDE] for t, (r, c) in enumerate(centres.astype(int))])  # noqa
+    hog = np.asarray(hog_jax.hog(cut(grey.astype(np.float32)) + 1.0, IN_HAND_HOG))
+    around, edges = cut(labels), np.linspace(0, SIDE, LABEL_GRID + 1).astype(int)
+    fractions = np.array([[np.mean(around[t, edges[i]:edges[i + 1], edges[j]:edges[j + 1]] == region)
+                           for i in range(LABEL_GRID) for j in range(LABEL_GRID) for region in (PERSON, SKIN, OBJECT)]
+                          for t in range(2)])
+    np.testing.assert_allclose(hand_window_features(grey, labels, centres, HALF), np.concatenate([hog, fractions], 1),
+                               rtol=1e-6, atol=1e-7)
 
 
-def _frames(rng, held: np.ndarray) -> np.ndarray:
-    """Noise frames; a held object is a dark disc beside the window's centre."""
+def _frames(rng, held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Noise frames and their labels (all background); a held object is a dark disc beside the window's
+    centre, labelled object."""
     grey = rng.normal(150.0, 10.0, size=(held.size, 48, 48))
     rows, cols = np.mgrid[:48, :48]
     disc = np.hypot(rows - 20, cols - 30) < 7
     grey[held] = np.where(disc, 40.0, grey[held])
-    return np.clip(grey, 0, 255)
+    labels = np.where(held[:, None, None] & disc, OBJECT, 0)
+    return np.clip(grey, 0, 255), labels
 
 
 def test_a_held_object_is_told_from_an_empty_hand_on_new_frames():
     rng = np.random.default_rng(1)
     centres = np.full((40, 2), 24.0)
     train = rng.random(40) < 0.75  # mostly held, as the clips are
-    classifier = fit_in_hand(hand_window_features(_frames(rng, train), centres, HALF), train)
+    classifier = fit_in_hand(hand_window_features(*_frames(rng, train), centres, HALF), train)
     test = np.arange(40) % 2 == 0
-    probability = in_hand_probability(classifier, hand_window_features(_frames(rng, test), centres, HALF))
+    probability = in_hand_probability(classifier, hand_window_features(*_frames(rng, test), centres, HALF))
     assert np.all(probability[test] > 0.5) and np.all(probability[~test] < 0.5)
 
 

@@ -78,7 +78,8 @@ def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tu
     if out is None:
         return {"pipeline": FrameFeatures(*(np.zeros_like(x) for x in renderer)), "renderer": renderer}, False, None
     tracked = np.flatnonzero(out["tracked"])
-    features = hand_window_features(out["grey"][tracked], out["hand"][tracked], out["half"])
+    features = hand_window_features(out["grey"][tracked], out["labels"][tracked], out["hand"][tracked],
+                                    out["half"])
     in_hand = InHandFrames(np.full(tracked.size, person), features, np.asarray(rec.object)[tracked] >= 0)
     return {"pipeline": pick(pipeline_features(out, spec)), "renderer": renderer}, True, in_hand
 

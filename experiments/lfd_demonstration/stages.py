@@ -70,7 +70,7 @@ def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict) -> n
     if np.unique(frames.held[others]).size < 2:
         return None
     classifier = fit_in_hand(frames.features[others], frames.held[others])
-    probability = in_hand_probability(classifier, hand_window_features(out["grey"], out["hand"], out["half"]))
+    probability = in_hand_probability(classifier, hand_window_features(out["grey"], out["labels"], out["hand"], out["half"]))
     return (probability > 0.5) & out["tracked"]
 
 
