@@ -17,7 +17,8 @@ from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.clips import ClipSet, InHandFrames, clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
 from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features
-from experiments.lfd_demonstration.in_hand import fit_in_hand, in_hand_probability
+from experiments.lfd_demonstration.in_hand import (EVIDENCE_CAP, SWITCH_COST_PER_FPS, fit_in_hand,
+                                                  in_hand_log_odds, in_hand_path)
 from experiments.lfd_demonstration.labelling import label_metrics, label_periods
 from experiments.lfd_demonstration.evaluate import EventMatch, held_object_motion, iou_by_bin, match_events, pooled_iou
 from experiments.lfd_demonstration.report import report
@@ -60,18 +61,20 @@ def recording_labels(cfg: Config, settings, clips, rec, out: dict, periods, matc
             "true": label(rec.pickup_frames, np.asarray(rec.putdown_frames) + 1), "true_truth": truth}
 
 
-def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict) -> np.ndarray | None:
+def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict, fps: float) -> np.ndarray | None:
     """(T,) "object in hand" of a recording's frames from the classifier (`in_hand`) trained on the
-    clips of the other persons (tracked frames only); None without such clips or where they show one
-    class only (flagged: the classifier's events are then all missed)."""
+    clips of the other persons: its log odds (capped at `EVIDENCE_CAP`, 0 where the hand is not tracked)
+    through `in_hand_path`; None without such clips or where they show one class only (flagged: the
+    classifier's events are then all missed)."""
     if frames is None:
         return None
     others = frames.person != person
     if np.unique(frames.held[others]).size < 2:
         return None
     classifier = fit_in_hand(frames.features[others], frames.held[others])
-    probability = in_hand_probability(classifier, hand_window_features(out["grey"], out["labels"], out["hand"], out["half"]))
-    return (probability > 0.5) & out["tracked"]
+    log_odds = in_hand_log_odds(classifier, hand_window_features(out["grey"], out["labels"], out["hand"], out["half"]))
+    evidence = np.where(out["tracked"], np.clip(log_odds, -EVIDENCE_CAP, EVIDENCE_CAP), 0.0)
+    return in_hand_path(evidence, SWITCH_COST_PER_FPS * fps)
 
 
 def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None,
@@ -99,7 +102,7 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         for key, value in (("ours", out["ours"][0]), ("peer", out["peer"][0]), ("truth", out["truth"]),
                            ("depth", np.abs(depth)), ("rotation", rotation)):
             windows[key].append(value)
-        classified = classifier_in_hand(clips and clips.in_hand, int(script.person), out)
+        classified = classifier_in_hand(clips and clips.in_hand, int(script.person), out, settings.fps)
         found_by = {"ours": (out["ours"][1], out["decided"]), "peer": (out["peer"][1], out["decided"]),
                     "classifier": (classified, out["tracked"])}
         for name in ("ours", "peer"):
