@@ -93,8 +93,9 @@ least {cfg.min_hand_motion:g} px (at 320 x 240) and is tracked in both views, el
 the closing and opening over time and periods under {cfg.min_duration_s:g} s removed. The paper's rule (a frame
 holds an object where its mask is not empty) is applied to ours and the peer's masks. "Hand-window classifier": a
 logistic regression on the HOG of a window twice as wide around the hand (`in_hand`), trained on the pre-segmented
-clips of the other persons (none with `--clip-repetitions 0`), decides every tracked frame; the same filter
-follows, and its periods are the ones the CHCRF labels below. A found period matches the true
+clips of the other persons (none with `--clip-repetitions 0`), gives every tracked frame log odds of "held"; a
+two-state Viterbi path with a cost per switch (0.64 nats x fps) decides the frames, the same filter follows,
+and its periods are the ones the CHCRF labels below. A found period matches the true
 one it overlaps most; errors are |found - true| in frames. A recording where the hand is never found is
 flagged (no σ_m, IoU "–") and its true events count as missed.
 
