@@ -35,6 +35,7 @@ from lfd_common import as_array, check_real
 SWITCH_COST_PER_FPS = 0.64
 EVIDENCE_CAP = 8.0  # nats: one frame's log odds, however confident, cannot by itself pay for two switches
 
+
 class InHandClassifier(NamedTuple):
     """A logistic regression of "object in hand" on `features.hand_window_features`.
 

@@ -35,6 +35,11 @@ def _event_metrics(matches: list, prefix: str) -> dict:
             f"{prefix}events_spurious": sum(m.spurious for m in matches), f"{prefix}events_matched": int(pick.size)}
 
 
+def _all_missed(n_true: int) -> EventMatch:
+    """The events of a recording nothing was found in (a flagged hand or classifier): every true one missed."""
+    return EventMatch(np.zeros(0, int), np.zeros(0, int), n_true, 0)
+
+
 DEPTH_EDGES_CM = (0.0, 1.0, 2.0, 4.0, 8.0, np.inf)
 ROTATION_EDGES_DEG = (0.0, 1.0, 2.0, 4.0, 8.0, np.inf)
 
@@ -95,7 +100,7 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         rows.append(row)
         if out is None:  # flagged: every true event of the recording is missed
             for name in events:
-                events[name].append(EventMatch(np.zeros(0, int), np.zeros(0, int), len(rec.pickup_frames), 0))
+                events[name].append(_all_missed(len(rec.pickup_frames)))
             continue
         row.update(sigma_px=out["sigma_px"], tracked=float(out["tracked"][out["start"]:].mean()))
         depth, rotation = held_object_motion(rec)
@@ -112,7 +117,7 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         segmented = {}
         for name, (found, decided) in found_by.items():
             if found is None:
-                events[name].append(EventMatch(np.zeros(0, int), np.zeros(0, int), len(rec.pickup_frames), 0))
+                events[name].append(_all_missed(len(rec.pickup_frames)))
                 continue
             periods = hog_jax.video.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, decided)
             match = match_events(rec.pickup_frames, rec.putdown_frames, periods.pickup, periods.putdown)
