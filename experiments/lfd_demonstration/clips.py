@@ -18,7 +18,8 @@ from experiments.data.video.settings import SOURCE_PACKAGES
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, hand_window_features,
-                                                    pipeline_features, renderer_features, segment_frames)
+                                                    pipeline_features, renderer_features, segment_frames, windows)
+from experiments.lfd_demonstration.object_pixels import PixelCues, PixelFrames, window_cues
 from lfd_common import Cache
 
 SOURCES = ("pipeline", "renderer")
@@ -35,7 +36,8 @@ _FEATURE_FIELDS = ("seed", "video_preset", "n_persons", "n_skin_persons", "pad_f
 CLIP_PACKAGES: tuple[str, ...] = SOURCE_PACKAGES + (
     "experiments.lfd_demonstration.clips", "experiments.lfd_demonstration.features",
     "experiments.lfd_demonstration.front", "experiments.lfd_demonstration.config",
-    "experiments.lfd_demonstration.evaluate", "experiments.peers", "hog_jax")
+    "experiments.lfd_demonstration.evaluate", "experiments.lfd_demonstration.object_pixels", "experiments.peers",
+    "hog_jax")
 _CLIPS = Cache("lfd_clip_features", packages=CLIP_PACKAGES)
 
 
@@ -48,10 +50,20 @@ class InHandFrames(NamedTuple):
     held: np.ndarray
 
 
+class ClipFeatures(NamedTuple):
+    """One clip's features: {"pipeline", "renderer"}: `FrameFeatures` of its OAC frames at `feature_fps`,
+    whether the front end found the hand, and the training frames of the "object in hand" classifier
+    (`InHandFrames`) and of the object's pixels (`object_pixels.PixelFrames`), None where the hand was lost."""
+
+    features: dict
+    hand_found: bool
+    in_hand: InHandFrames | None
+    pixels: PixelFrames | None
+
+
 def clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tuple[int, int, int],
-                  script) -> tuple[dict[str, FrameFeatures], bool, InHandFrames | None]:
-    """({"pipeline", "renderer"}: features of the clip's OAC frames at `feature_fps`, hand found, the
-    training frames of the "object in hand" classifier, `InHandFrames`): the whole clip runs through
+                  script) -> ClipFeatures:
+    """The `ClipFeatures` of one clip: the whole clip runs through
     `recording_objects`, the return to rest after the put-down included (the classifier needs empty-hand
     frames on both sides of a period; sigma_m, the hand's width, is then the median over the whole clip, as
     over a whole long recording); a clip whose hand the front end never finds keeps zero pipeline
@@ -65,7 +77,7 @@ def clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tup
 
 
 def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tuple[int, int, int],
-                   script) -> tuple[dict[str, FrameFeatures], bool, InHandFrames | None]:
+                   script) -> ClipFeatures:
     """`clip_features`, computed."""
     rec = video.render_recording(settings, script, progress=progress)
     a, b = int(rec.pickup_frames[0]), int(rec.putdown_frames[0]) + 1
@@ -76,22 +88,28 @@ def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tu
     person, cls, rep = key
     out = recording_objects(cfg, settings, rec, skin_model, 10_000 + 1000 * person + 100 * cls + rep, peer=False)
     if out is None:
-        return {"pipeline": FrameFeatures(*(np.zeros_like(x) for x in renderer)), "renderer": renderer}, False, None
+        return ClipFeatures({"pipeline": FrameFeatures(*(np.zeros_like(x) for x in renderer)), "renderer": renderer},
+                            False, None, None)
     tracked = np.flatnonzero(out["tracked"])
     features = hand_window_features(out["grey"][tracked], out["labels"][tracked], out["hand"][tracked],
                                     out["half"])
-    in_hand = InHandFrames(np.full(tracked.size, person), features, np.asarray(rec.object)[tracked] >= 0)
-    return {"pipeline": pick(pipeline_features(out, spec)), "renderer": renderer}, True, in_hand
+    held = np.asarray(rec.object) >= 0
+    in_hand = InHandFrames(np.full(tracked.size, person), features, held[tracked])
+    cues = window_cues(out["objects"], windows(out["labels"], out["hand"], out["half"], fill=-1))
+    kept = np.flatnonzero(out["tracked"] & held)
+    pixels = PixelFrames(np.full(kept.size, person), out["truth"][kept], PixelCues(*(c[kept] for c in cues)))
+    return ClipFeatures({"pipeline": pick(pipeline_features(out, spec)), "renderer": renderer}, True, in_hand, pixels)
 
 
 class ClipSet(NamedTuple):
     """The clips' features per source as `OACData`, how many clips lost the hand, and the clips'
-    `InHandFrames` concatenated (None when every clip lost it)."""
+    `InHandFrames` and `PixelFrames` concatenated (None when every clip lost it)."""
 
     data: dict
     hand_lost: int
     n_clips: int
     in_hand: InHandFrames | None
+    pixels: PixelFrames | None
 
 
 def clip_stage(cfg: Config, settings, skin_model, spec: FeatureSpec) -> ClipSet:
@@ -100,18 +118,16 @@ def clip_stage(cfg: Config, settings, skin_model, spec: FeatureSpec) -> ClipSet:
     persons = cfg.clip_persons(settings)
     jobs = sorted(((p, c, r, s) for p, c, r, s in video.clip_scripts(settings)
                    if p in persons and r < cfg.clip_repetitions), key=lambda job: (job[2], job[0], job[1]))
-    feats, meta, lost, in_hand = {s: [] for s in SOURCES}, [], 0, []
-    for p, c, r, script in progress(jobs, desc="OAC clips through the front end"):
-        f, found, frames = clip_features(cfg, settings, skin_model, spec, (p, c, r), script)
-        lost += not found
-        for s in SOURCES:
-            feats[s].append(f[s])
-        meta.append((c, c, p, r))
-        in_hand += [frames] if frames is not None else []
-    meta = np.array(meta, int).reshape(-1, 4)
-    data = {s: as_oac_data(feats[s], *meta.T) for s in SOURCES}
-    frames = InHandFrames(*(np.concatenate(x) for x in zip(*in_hand))) if in_hand else None
-    return ClipSet(data, lost, len(jobs), frames)
+    clips = [clip_features(cfg, settings, skin_model, spec, (p, c, r), script)
+             for p, c, r, script in progress(jobs, desc="OAC clips through the front end")]
+    meta = np.array([(c, c, p, r) for p, c, r, _ in jobs], int).reshape(-1, 4)
+    data = {s: as_oac_data([clip.features[s] for clip in clips], *meta.T) for s in SOURCES}
+    found = [clip for clip in clips if clip.hand_found]
+    in_hand = InHandFrames(*(np.concatenate(x) for x in zip(*(c.in_hand for c in found)))) if found else None
+    pixels = PixelFrames(np.concatenate([c.pixels.person for c in found]),
+                         np.concatenate([c.pixels.truth for c in found]),
+                         PixelCues(*(np.concatenate(x) for x in zip(*(c.pixels.cues for c in found))))) if found else None
+    return ClipSet(data, len(clips) - len(found), len(jobs), in_hand, pixels)
 
 
 def crf_config(cfg: Config, n_persons: int) -> ProtocolOptions:

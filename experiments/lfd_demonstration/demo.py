@@ -23,7 +23,7 @@ def demo_stage(cfg) -> StageResult:
                                            lcfg.seed)
     clips = clip_stage(lcfg, settings, skin_model, FeatureSpec())
     metrics, result = object_stage(lcfg, settings, skin_model, clips)
-    keys = ("object_mask_iou", "object_mask_iou_peer", "events_true", "events_matched", "events_missed",
+    keys = ("object_mask_iou", "object_mask_iou_peer", "object_mask_iou_learned", "events_true", "events_matched", "events_missed",
             "events_spurious", "pickup_error_frames", "putdown_error_frames", "classifier_events_matched",
             "classifier_events_missed", "classifier_events_spurious", "classifier_pickup_error_frames",
             "classifier_putdown_error_frames", "oac_correct_rate",

@@ -110,15 +110,15 @@ def object_in_hand(first, fps: float) -> plt.Figure:
 
 
 def iou_by_motion(failure: dict) -> plt.Figure:
-    """Pooled object IoU of ours and the peer by the held object's depth offset from the hand and by its
+    """Pooled object IoU of ours, the peer and the learned pixels by the held object's depth offset from the hand and by its
     in-plane rotation speed (`stages.failure_cases`)."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 3))
     for ax, what, label in ((axes[0], "depth_offset_cm", "|depth offset from the hand| (cm)"),
                             (axes[1], "rotation_deg_per_frame", "in-plane rotation (degrees / frame)")):
         bins = list(failure[f"{what}_ours"])
         x = np.arange(len(bins))
-        for dx, name in ((-0.2, "ours"), (0.2, "peer")):
-            ax.bar(x + dx, [failure[f"{what}_{name}"][b] for b in bins], width=0.4, label=name)
+        for dx, name in ((-0.27, "ours"), (0.0, "peer"), (0.27, "learned")):
+            ax.bar(x + dx, [failure[f"{what}_{name}"][b] for b in bins], width=0.27, label=name)
         ax.set_xticks(x, bins, fontsize=7)
         ax.set_xlabel(label)
         ax.set_ylabel("object IoU (pooled)")

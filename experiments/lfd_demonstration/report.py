@@ -56,8 +56,11 @@ def report(cfg, settings, m: dict, runtime_s: float) -> str:
         return f"{m[prefix + 'events_matched']} / {m[prefix + 'events_missed']} / {m[prefix + 'events_spurious']}"
 
     classified = cfg.clip_repetitions > 0
+    learned = _f(m["object_mask_iou_learned"]) if classified else "not run"
     rows = [["object-mask IoU in the hand's window (pooled)", _f(m["object_mask_iou"]),
-             _f(m["object_mask_iou_peer"]), "–", "–"],
+             _f(m["object_mask_iou_peer"]), learned, "–"],
+            ["the same within the classifier's periods", _f(m["object_mask_iou_in_periods"]),
+             _f(m["object_mask_iou_peer_in_periods"]), learned, "–"],
             ["pick-up error, frames (mean / median)", errors("", "pickup"), errors("peer_", "pickup"),
              errors("classifier_", "pickup") if classified else "not run", "1.2"],
             ["put-down error, frames (mean / median)", errors("", "putdown"), errors("peer_", "putdown"),
@@ -65,20 +68,21 @@ def report(cfg, settings, m: dict, runtime_s: float) -> str:
             ["events matched / missed / spurious", counts(""), counts("peer_"),
              counts("classifier_") if classified else "not run", "5 / 0 / 0"]]
     table = markdown_table(["quantity", "ours (phase, LfD §III-B)", "peer (StereoSGBM + DIS)",
-                            "hand-window classifier", "paper"], rows)
+                            "hand-window classifier; learned object pixels", "paper"], rows)
     per = markdown_table(["recording", "person", "frames", "σ_m px", "hand tracked", "IoU ours", "IoU peer",
-                          "true events", "found ours", "found peer", "found classifier"],
+                          "IoU learned", "true events", "found ours", "found peer", "found classifier"],
                          [[k, r["person"], r["frames"], _f(r.get("sigma_px"), 1), _f(r.get("tracked"), 2),
-                           _f(r.get("ours_iou")), _f(r.get("peer_iou")), r["true_events"],
+                           _f(r.get("ours_iou")), _f(r.get("peer_iou")),
+                           _f(r.get("learned_iou")) if classified else "–", r["true_events"],
                            r.get("ours_found_events", 0), r.get("peer_found_events", 0),
                            r.get("classifier_found_events", "–")]
                           for k, r in m["recordings"].items()])
     by = m.get("iou_by")
     failure = "" if not by else "Object IoU against the paper's failure cases (held frames binned):\n\n"
     failure += "" if not by else markdown_table(
-        ["bin", "depth offset (cm): ours", "peer", "rotation (deg / frame): ours", "peer"],
-        [[b, _f(by["depth_offset_cm_ours"][b]), _f(by["depth_offset_cm_peer"][b]),
-          _f(by["rotation_deg_per_frame_ours"][r]), _f(by["rotation_deg_per_frame_peer"][r])]
+        ["bin", "depth offset (cm): ours", "peer", "learned", "rotation (deg / frame): ours", "peer", "learned"],
+        [[b, *(_f(by[f"depth_offset_cm_{name}"][b]) for name in ("ours", "peer", "learned")),
+          *(_f(by[f"rotation_deg_per_frame_{name}"][r]) for name in ("ours", "peer", "learned"))]
          for b, r in zip(by["depth_offset_cm_ours"], by["rotation_deg_per_frame_ours"])])
     return f"""# Learning from an unsegmented demonstration (LfD 2009 §III-B, §III-D)
 
@@ -95,7 +99,12 @@ holds an object where its mask is not empty) is applied to ours and the peer's m
 logistic regression on the HOG of a window twice as wide around the hand (`in_hand`), trained on the pre-segmented
 clips of the other persons (none with `--clip-repetitions 0`), gives every tracked frame log odds of "held"; a
 two-state Viterbi path with a cost per switch (0.64 nats x fps) decides the frames, the same filter follows,
-and its periods are the ones the CHCRF labels below. A found period matches the true
+and its periods are the ones the CHCRF labels below. "Learned object pixels" (`object_pixels`): a per-pixel
+logistic regression on where held objects lie relative to the hand's tip (their frequency in the clips' windows),
+the phase cues and the front end's labels, trained on the clips of the other persons (the renderer's object
+masks of their held frames); a pixel is the object's where its log odds exceed -1, in the classifier's periods
+only. Object IoUs pool the windows of every frame of a recording (a mask outside the held frames counts against
+it); "within the classifier's periods" keeps ours and the peer's masks in the same frames as the learned ones. A found period matches the true
 one it overlaps most; errors are |found - true| in frames. A recording where the hand is never found is
 flagged (no σ_m, IoU "–") and its true events count as missed.
 

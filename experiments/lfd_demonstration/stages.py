@@ -16,10 +16,12 @@ from experiments.lfd_demonstration import plots
 from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.clips import ClipSet, InHandFrames, clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
-from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features
+from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features, windows
 from experiments.lfd_demonstration.in_hand import (EVIDENCE_CAP, SWITCH_COST_PER_FPS, fit_in_hand,
                                                   in_hand_log_odds, in_hand_path)
 from experiments.lfd_demonstration.labelling import label_metrics, label_periods
+from experiments.lfd_demonstration.object_pixels import (PixelCues, PixelFrames, fit_object_pixels, in_periods,
+                                                         object_pixel_masks, window_cues)
 from experiments.lfd_demonstration.evaluate import EventMatch, held_object_motion, iou_by_bin, match_events, pooled_iou
 from experiments.lfd_demonstration.report import report
 from lfd_common import enable_compilation_cache
@@ -40,17 +42,20 @@ def _all_missed(n_true: int) -> EventMatch:
     return EventMatch(np.zeros(0, int), np.zeros(0, int), n_true, 0)
 
 
+# the object masks whose pooled IoU is reported: ours (phase, the paper's), the OpenCV peer's, the learned
+# pixels (`object_pixels`), and ours and the peer's restricted to the periods the learned ones are shown in
+MASK_SOURCES = ("ours", "peer", "learned", "ours_in_periods", "peer_in_periods")
 DEPTH_EDGES_CM = (0.0, 1.0, 2.0, 4.0, 8.0, np.inf)
 ROTATION_EDGES_DEG = (0.0, 1.0, 2.0, 4.0, 8.0, np.inf)
 
 
 def failure_cases(w: dict) -> dict:
-    """LfD §III-B's failure cases: pooled object IoU (ours, peer) by the held object's depth offset from
+    """LfD §III-B's failure cases: pooled object IoU (ours, peer, learned) by the held object's depth offset from
     the hand (|cm|) and by its in-plane rotation (degrees per frame), `evaluate.held_object_motion`."""
     return {f"{what}_{name}": iou_by_bin(w[name], w["truth"], w[key], edges)
             for what, key, edges in (("depth_offset_cm", "depth", DEPTH_EDGES_CM),
                                      ("rotation_deg_per_frame", "rotation", ROTATION_EDGES_DEG))
-            for name in ("ours", "peer")}
+            for name in ("ours", "peer", "learned")}
 
 
 def recording_labels(cfg: Config, settings, clips, rec, out: dict, periods, match, spec: FeatureSpec) -> dict:
@@ -82,16 +87,28 @@ def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict, fps:
     return in_hand_path(evidence, SWITCH_COST_PER_FPS * fps)
 
 
+def learned_object_masks(pixels: PixelFrames | None, person: int, out: dict, held: np.ndarray) -> np.ndarray | None:
+    """(T, h, w) the held object's pixels (`object_pixels`) in a recording's frames that `held` (T,) says
+    hold an object, from the model fitted on the clips of the other persons; None without such clips."""
+    if pixels is None or not np.any(pixels.person != person):
+        return None
+    others = np.flatnonzero(pixels.person != person)
+    model = fit_object_pixels(PixelFrames(pixels.person[others], pixels.truth[others],
+                                          PixelCues(*(c[others] for c in pixels.cues))))
+    cues = window_cues(out["objects"], windows(out["labels"], out["hand"], out["half"], fill=-1))
+    return object_pixel_masks(model, cues, held & out["tracked"])
+
+
 def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None,
                  spec: FeatureSpec = FeatureSpec()) -> tuple[dict, StageResult]:
     """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events of the
     paper's rule (a mask found: ours, the peer) and of the hand-window classifier (`in_hand`, with
     `clips`); with `clips`, the CHCRF label and Z(x) of each OAC the classifier found."""
     radius = max(1, round(cfg.filter_radius * settings.fps / 25.0))
-    sums = {"ours": np.zeros(2, int), "peer": np.zeros(2, int)}
+    sums = {name: np.zeros(2, int) for name in MASK_SOURCES}
     events = {"ours": [], "peer": [], "classifier": []}
-    rows, first, labelled = [], None, []
-    windows = {"ours": [], "peer": [], "truth": [], "depth": [], "rotation": []}  # for the failure cases
+    rows, first, labelled, learned_ran = [], None, [], False
+    cases = {"ours": [], "peer": [], "learned": [], "truth": [], "depth": [], "rotation": []}  # the failure cases
     for i, script in enumerate(progress(video.long_scripts(settings), desc="long recordings")):
         rec = video.render_recording(settings, script, progress=progress)
         out = recording_objects(cfg, settings, rec, skin_model, i)
@@ -103,17 +120,9 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
                 events[name].append(_all_missed(len(rec.pickup_frames)))
             continue
         row.update(sigma_px=out["sigma_px"], tracked=float(out["tracked"][out["start"]:].mean()))
-        depth, rotation = held_object_motion(rec)
-        for key, value in (("ours", out["ours"][0]), ("peer", out["peer"][0]), ("truth", out["truth"]),
-                           ("depth", np.abs(depth)), ("rotation", rotation)):
-            windows[key].append(value)
         classified = classifier_in_hand(clips and clips.in_hand, int(script.person), out, settings.fps)
         found_by = {"ours": (out["ours"][1], out["decided"]), "peer": (out["peer"][1], out["decided"]),
                     "classifier": (classified, out["tracked"])}
-        for name in ("ours", "peer"):
-            counts = pooled_iou(out[name][0], out["truth"])
-            sums[name] += counts
-            row[f"{name}_iou"] = counts[0] / max(counts[1], 1)
         segmented = {}
         for name, (found, decided) in found_by.items():
             if found is None:
@@ -127,20 +136,39 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
                         f"{name}_found_events": int(len(periods.pickup))})
         source = "classifier" if "classifier" in segmented else "ours"  # the periods the CHCRF labels
         found, decided, periods, match = segmented[source]
+        held = in_periods(periods.pickup, periods.putdown, len(rec.left))
+        learned = learned_object_masks(clips and clips.pixels, int(script.person), out, held)
+        learned_ran |= learned is not None and source == "classifier"
+        masks = {"ours": out["ours"][0], "peer": out["peer"][0],
+                 "learned": np.zeros_like(out["truth"]) if learned is None else learned,
+                 "ours_in_periods": out["ours"][0] & held[:, None, None],
+                 "peer_in_periods": out["peer"][0] & held[:, None, None]}
+        for name in MASK_SOURCES:
+            counts = pooled_iou(masks[name], out["truth"])
+            sums[name] += counts
+            row[f"{name}_iou"] = counts[0] / max(counts[1], 1)
+        depth, rotation = held_object_motion(rec)
+        for key, value in (("ours", masks["ours"]), ("peer", masks["peer"]), ("learned", masks["learned"]),
+                           ("truth", out["truth"]), ("depth", np.abs(depth)), ("rotation", rotation)):
+            cases[key].append(value)
         if clips is not None:
             labelled.append(recording_labels(cfg, settings, clips.data["pipeline"], rec, out, periods, match, spec))
         if first is None:
             first = {**out, "rec": rec, "masks": out["ours"][0], "raw": found, "decided": decided, "periods": periods,
                      "source": source, "labels": labelled[-1] if labelled else None}
-    metrics = {"object_mask_iou": sums["ours"][0] / max(sums["ours"][1], 1),
-               "object_mask_iou_peer": sums["peer"][0] / max(sums["peer"][1], 1), "n_recordings": len(rows),
+    iou = {name: sums[name][0] / max(sums[name][1], 1) for name in MASK_SOURCES}
+    if not learned_ran:
+        iou["learned"] = float("nan")
+    metrics = {"object_mask_iou": iou["ours"], "object_mask_iou_peer": iou["peer"],
+               "object_mask_iou_learned": iou["learned"], "object_mask_iou_in_periods": iou["ours_in_periods"],
+               "object_mask_iou_peer_in_periods": iou["peer_in_periods"], "n_recordings": len(rows),
                "events_true": sum(r["true_events"] for r in rows),
                "recordings": {str(k): r for k, r in enumerate(rows)},
                **_event_metrics(events["ours"], ""), **_event_metrics(events["peer"], "peer_"),
                **_event_metrics(events["classifier"], "classifier_")}
     if first is None:
         return metrics, StageResult(metrics)
-    failure = failure_cases({k: np.concatenate(v) for k, v in windows.items()})
+    failure = failure_cases({k: np.concatenate(v) for k, v in cases.items()})
     metrics["iou_by"] = failure
     if labelled:
         metrics.update(label_metrics(labelled))
