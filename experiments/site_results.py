@@ -121,6 +121,8 @@ HEADLINES = (
              "1.2 / 3.4 (all 5 found)",
              ("classifier_events_matched", "events_true", "classifier_pickup_error_frames",
               "classifier_putdown_error_frames", "classifier_events_spurious"), _events, partial=True),
+    Headline("lfd_demonstration", "LFD", "object-mask IoU in the hand's window: ours (phase) / learnt pixels / OpenCV peer",
+             "no figure", ("object_mask_iou", "object_mask_iou_learned", "object_mask_iou_peer"), _num(3)),
     Headline("imitation", "loop", "action / target / grasp accuracy; task success", "shown live, no figure",
              ("action_accuracy", "target_accuracy", "grasp_accuracy", "task_success_rate"), _num(2)),
 )

@@ -118,11 +118,12 @@ def test_quick_preset_writes_every_metric_and_figure(quick_run):
         assert floor <= on_disk[key] <= 1.0, (key, on_disk[key])
     assert on_disk["events_true"] == 2 == on_disk["events_matched"] + on_disk["events_missed"]
     assert on_disk["classifier_events_missed"] == 2  # no clips, no classifier: its events are flagged missed
-    assert math.isnan(on_disk["object_mask_iou_learned"])  # nor the learned object pixels: not run, not 0
+    assert math.isnan(float(on_disk["object_mask_iou_learned"]))  # nor the learned object pixels: not run, not 0
     assert math.isfinite(on_disk["recordings_0_sigma_px"]) and on_disk["recordings_0_sigma_px"] > 0
     by_depth = [k for k in on_disk if k.startswith("iou_by_depth_offset_cm_ours_")]
     assert len(by_depth) == 5 and any(math.isfinite(on_disk[k]) for k in by_depth)
-    for name in ("fig3_likelihood_ratios.png", "fig8_object_in_hand.png", "iou_vs_depth_and_rotation.png", "report.md"):
+    for name in ("fig3_likelihood_ratios.png", "fig8_object_in_hand.png", "iou_vs_depth_and_rotation.png",
+                 "object_masks.png", "report.md"):
         assert (out / name).stat().st_size > 0, name
 
 

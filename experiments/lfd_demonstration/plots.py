@@ -1,5 +1,6 @@
 """Figures of the learning-from-demonstration study: LfD 2009 Fig. 3 (the likelihood-ratio maps of one
-frame) and Fig. 8 (raw, filtered and true "object in hand" over a long recording)."""
+frame), the object masks of held frames side by side, and Fig. 8 (raw, filtered and true "object in hand"
+over a long recording)."""
 from __future__ import annotations
 
 import matplotlib
@@ -46,6 +47,28 @@ def likelihood_ratios(first) -> plt.Figure:
         ax.axis("off")
     fig.suptitle(f"frame {t} of the first long recording, where our mask overlaps the truth most (LfD 2009 Fig. 3)",
                  fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def object_mask_sheet(first, n_frames: int = 6) -> plt.Figure:
+    """The hand's window, the true held object, ours, the peer's and the learned pixels' masks in `n_frames`
+    frames evenly spaced over the first long recording's truly held, tracked frames (not chosen by outcome)."""
+    held = np.flatnonzero(first["truth"].any(axis=(1, 2)) & first["tracked"])
+    frames = held[np.linspace(0, held.size - 1, min(n_frames, held.size)).astype(int)] if held.size else held
+    rows = [("window", lambda t: window(first["grey"][t], np.asarray(first["hand"])[t], first["half"])),
+            ("truth", lambda t: first["truth"][t]), ("ours (phase)", lambda t: first["masks"][t]),
+            ("peer", lambda t: first["peer"][0][t]), ("learned", lambda t: first["learned"][t])]
+    fig, axes = plt.subplots(len(rows), max(len(frames), 1), figsize=(1.6 * max(len(frames), 1), 1.7 * len(rows)),
+                             squeeze=False)
+    for j, t in enumerate(frames):
+        for i, (name, image) in enumerate(rows):
+            axes[i, j].imshow(image(t), cmap="gray")
+            axes[i, j].set_title(f"{name}, frame {t}" if i == 0 else name, fontsize=7)
+    for ax in axes.ravel():
+        ax.axis("off")
+    fig.suptitle("object masks in the hand's window, held frames evenly spaced over the first long recording",
+                 fontsize=8)
     fig.tight_layout()
     return fig
 

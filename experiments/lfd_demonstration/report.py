@@ -104,7 +104,8 @@ logistic regression on where held objects lie relative to the hand's tip (their 
 the phase cues and the front end's labels, trained on the clips of the other persons (the renderer's object
 masks of their held frames); a pixel is the object's where its log odds exceed -1, in the classifier's periods
 only. Object IoUs pool the windows of every frame of a recording (a mask outside the held frames counts against
-it); "within the classifier's periods" keeps ours and the peer's masks in the same frames as the learned ones. A found period matches the true
+it); "within the classifier's periods" keeps ours and the peer's masks in the same frames as the learned ones (figure `object_masks.png`: the three
+masks in held frames evenly spaced over the first recording). A found period matches the true
 one it overlaps most; errors are |found - true| in frames. A recording where the hand is never found is
 flagged (no σ_m, IoU "–") and its true events count as missed.
 

@@ -154,7 +154,7 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         if clips is not None:
             labelled.append(recording_labels(cfg, settings, clips.data["pipeline"], rec, out, periods, match, spec))
         if first is None:
-            first = {**out, "rec": rec, "masks": out["ours"][0], "raw": found, "decided": decided, "periods": periods,
+            first = {**out, "rec": rec, "masks": out["ours"][0], "learned": masks["learned"], "raw": found, "decided": decided, "periods": periods,
                      "source": source, "labels": labelled[-1] if labelled else None}
     iou = {name: sums[name][0] / max(sums[name][1], 1) for name in MASK_SOURCES}
     if not learned_ran:
@@ -174,6 +174,7 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         metrics.update(label_metrics(labelled))
     figures = {"fig3_likelihood_ratios.png": plots.likelihood_ratios(first),
                "fig8_object_in_hand.png": plots.object_in_hand(first, settings.fps),
+               "object_masks.png": plots.object_mask_sheet(first),
                "iou_vs_depth_and_rotation.png": plots.iou_by_motion(failure)}
     return metrics, StageResult(metrics, figures)
 
