@@ -15,9 +15,10 @@ Stage "oac": one simulated object-action complex classified by a CHCRF (`oac_dem
 experiments.oac_recognition).
 Stage "video": one rendered stereo clip segmented into skin, person, object and background, hand and
 face tracked (`video_demo_sheet.png`; experiments.video_segmentation).
-Stage "lfd": one short long recording (two OACs): the object in the hand from phase differences,
-the pick-up / put-down events (the paper's rule and the hand-window classifier trained on the clips) and the
-CHCRF label and Z(x) of each period the classifier found (`lfd_demo_fig8.png`;
+Stage "lfd": one short long recording (two OACs): the object in the hand from phase differences and
+from pixels learnt on the clips, the pick-up / put-down events (the paper's rule and the hand-window
+classifier trained on the clips) and the
+CHCRF label and Z(x) of each period the classifier found (`lfd_demo_fig8.png`, `lfd_demo_object_masks.png`;
 experiments.lfd_demonstration).
 Stage "imitation": the first three rendered demonstrations of the seed (point or pick-and-place) through
 the whole loop, video to robot, each with its side-by-side video `imitation_demo_<k>.mp4` (the person |

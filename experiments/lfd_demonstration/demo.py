@@ -15,7 +15,8 @@ from experiments.lfd_demonstration.stages import object_stage
 
 
 def demo_stage(cfg) -> StageResult:
-    """`make demo` stage (`lfd_demo_fig8.png`). cfg: the demo's config (only `cfg.seed` is used)."""
+    """`make demo` stage (`lfd_demo_fig8.png`, `lfd_demo_object_masks.png`). cfg: the demo's config (only
+    `cfg.seed` is used)."""
     start = time.perf_counter()
     lcfg = dataclasses.replace(Config(**PRESETS["quick"]), seed=int(cfg.seed), script_oacs=2)
     settings = lcfg.video_settings()
@@ -23,8 +24,8 @@ def demo_stage(cfg) -> StageResult:
                                            lcfg.seed)
     clips = clip_stage(lcfg, settings, skin_model, FeatureSpec())
     metrics, result = object_stage(lcfg, settings, skin_model, clips)
-    keys = ("object_mask_iou", "object_mask_iou_peer", "object_mask_iou_learned", "events_true", "events_matched", "events_missed",
-            "events_spurious", "pickup_error_frames", "putdown_error_frames", "classifier_events_matched",
+    keys = ("object_mask_iou", "object_mask_iou_peer", "object_mask_iou_learned", "events_true", "events_matched",
+            "events_missed", "events_spurious", "pickup_error_frames", "putdown_error_frames", "classifier_events_matched",
             "classifier_events_missed", "classifier_events_spurious", "classifier_pickup_error_frames",
             "classifier_putdown_error_frames", "oac_correct_rate",
             "true_periods_oac_correct_rate", "true_periods_z_seen", "true_periods_z_unseen")
@@ -33,10 +34,13 @@ def demo_stage(cfg) -> StageResult:
     report = "\n".join([
         "## Stage lfd: the object in the hand and pick-up / put-down events in a long recording", "",
         f"One {settings.width} x {settings.height} recording at {settings.fps:g} fps with two OACs: front end, "
-        "phase-difference object segmentation (LfD 2009 §III-B), temporal segmentation (§III-D) of the paper's "
+        "phase-difference object segmentation (LfD 2009 §III-B) beside the held object's pixels learnt from the "
+        "clips (`object_mask_iou_learned`), temporal segmentation (§III-D) of the paper's "
         "rule (`events_*`: a mask found) and of the hand-window classifier (`classifier_events_*`), each period the "
         f"classifier found labelled by the CHCRF (eqs. 9-10); both trained on {clips.n_clips} clips through the same "
         "front end.", "",
         markdown_table(["quantity", "value"],
                        [(k, out[f"lfd_demo_{k}"]) for k in keys] + [("time (s)", out["lfd_demo_s"])])])
-    return StageResult(out, {"lfd_demo_fig8.png": result.figures.get("fig8_object_in_hand.png")}, report)
+    figures = {"lfd_demo_fig8.png": result.figures.get("fig8_object_in_hand.png"),
+               "lfd_demo_object_masks.png": result.figures.get("object_masks.png")}
+    return StageResult(out, figures, report)

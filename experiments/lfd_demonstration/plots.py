@@ -133,8 +133,8 @@ def object_in_hand(first, fps: float) -> plt.Figure:
 
 
 def iou_by_motion(failure: dict) -> plt.Figure:
-    """Pooled object IoU of ours, the peer and the learned pixels by the held object's depth offset from the hand and by its
-    in-plane rotation speed (`stages.failure_cases`)."""
+    """Pooled object IoU of ours, the peer and the learned pixels by the held object's depth offset from the
+    hand and by its in-plane rotation speed (`stages.failure_cases`)."""
     fig, axes = plt.subplots(1, 2, figsize=(10, 3))
     for ax, what, label in ((axes[0], "depth_offset_cm", "|depth offset from the hand| (cm)"),
                             (axes[1], "rotation_deg_per_frame", "in-plane rotation (degrees / frame)")):

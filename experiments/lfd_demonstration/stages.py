@@ -154,7 +154,8 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         if clips is not None:
             labelled.append(recording_labels(cfg, settings, clips.data["pipeline"], rec, out, periods, match, spec))
         if first is None:
-            first = {**out, "rec": rec, "masks": out["ours"][0], "learned": masks["learned"], "raw": found, "decided": decided, "periods": periods,
+            first = {**out, "rec": rec, "masks": out["ours"][0], "learned": masks["learned"], "raw": found,
+                     "decided": decided, "periods": periods,
                      "source": source, "labels": labelled[-1] if labelled else None}
     iou = {name: sums[name][0] / max(sums[name][1], 1) for name in MASK_SOURCES}
     if not learned_ran:
