@@ -124,9 +124,11 @@ def clip_stage(cfg: Config, settings, skin_model, spec: FeatureSpec) -> ClipSet:
     data = {s: as_oac_data([clip.features[s] for clip in clips], *meta.T) for s in SOURCES}
     found = [clip for clip in clips if clip.hand_found]
     in_hand = InHandFrames(*(np.concatenate(x) for x in zip(*(c.in_hand for c in found)))) if found else None
-    pixels = PixelFrames(np.concatenate([c.pixels.person for c in found]),
-                         np.concatenate([c.pixels.truth for c in found]),
-                         PixelCues(*(np.concatenate(x) for x in zip(*(c.pixels.cues for c in found))))) if found else None
+    pixels = None
+    if found:
+        cues = PixelCues(*(np.concatenate(x) for x in zip(*(c.pixels.cues for c in found))))
+        pixels = PixelFrames(np.concatenate([c.pixels.person for c in found]),
+                             np.concatenate([c.pixels.truth for c in found]), cues)
     return ClipSet(data, len(clips) - len(found), len(jobs), in_hand, pixels)
 
 
