@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from experiments.config import markdown_table
+from experiments.lfd_demonstration.boundaries import SEARCH_AFTER_S, SEARCH_BEFORE_S
 from experiments.data.oac_protocol import PAPER_LFD_CORRECT, PAPER_TABLE2, PAPER_TABLE3, PAPER_TABLE4
 
 PAPER = {"pickup_error_frames": 1.2, "putdown_error_frames": 3.4}  # LfD 2009 §V: all 5 actions found
@@ -99,7 +100,10 @@ holds an object where its mask is not empty) is applied to ours and the peer's m
 logistic regression on the HOG of a window twice as wide around the hand (`in_hand`), trained on the pre-segmented
 clips of the other persons (none with `--clip-repetitions 0`), gives every tracked frame log odds of "held"; a
 two-state Viterbi path with a cost per switch (0.64 nats x fps) decides the frames, the same filter follows,
-and its periods are the ones the CHCRF labels below. "Learned object pixels" (`object_pixels`): a per-pixel
+then each pick-up moves to the frame where the tracked hand is slowest from {SEARCH_BEFORE_S:g} s before it to
+{SEARCH_AFTER_S:g} s after it, each put-down likewise from {SEARCH_AFTER_S:g} s before to {SEARCH_BEFORE_S:g} s after (`boundaries`: the hand stops where it grasps and lets
+go, before the object looks held and after it looks put down), and these periods are the ones the CHCRF labels
+below. "Learned object pixels" (`object_pixels`): a per-pixel
 logistic regression on where held objects lie relative to the hand's tip (their frequency in the clips' windows),
 the phase cues and the front end's labels, trained on the clips of the other persons (the renderer's object
 masks of their held frames); a pixel is the object's where its log odds exceed -1, in the classifier's periods

@@ -14,6 +14,8 @@ from experiments.config import StageResult, parse_config, progress
 from experiments.data import video
 from experiments.lfd_demonstration import plots
 from experiments.lfd_demonstration.front import recording_objects
+from experiments.lfd_demonstration.boundaries import (SEARCH_AFTER_S, SEARCH_BEFORE_S, SPEED_SMOOTH_S, hand_speed,
+                                                      snap_to_slowest)
 from experiments.lfd_demonstration.clips import ClipSet, InHandFrames, clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
 from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features, windows
@@ -103,8 +105,10 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
                  spec: FeatureSpec = FeatureSpec()) -> tuple[dict, StageResult]:
     """Every long recording: the object in the hand (ours and the peer), pooled IoUs, the events of the
     paper's rule (a mask found: ours, the peer) and of the hand-window classifier (`in_hand`, with
-    `clips`); with `clips`, the CHCRF label and Z(x) of each OAC the classifier found."""
+    `clips`; its boundaries moved to the hand's slowest frames, `boundaries`); with `clips`, the CHCRF label
+    and Z(x) of each OAC the classifier found."""
     radius = max(1, round(cfg.filter_radius * settings.fps / 25.0))
+    frames = lambda seconds: max(1, round(seconds * settings.fps))  # noqa: E731
     sums = {name: np.zeros(2, int) for name in MASK_SOURCES}
     events = {"ours": [], "peer": [], "classifier": []}
     rows, first, labelled, learned_ran = [], None, [], False
@@ -129,6 +133,9 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
                 events[name].append(_all_missed(len(rec.pickup_frames)))
                 continue
             periods = hog_jax.video.periods_in_hand(found, settings.fps, radius, cfg.min_duration_s, decided)
+            if name == "classifier":
+                periods = snap_to_slowest(periods, hand_speed(out["hand"], out["tracked"], frames(SPEED_SMOOTH_S)),
+                                          frames(SEARCH_BEFORE_S), frames(SEARCH_AFTER_S))
             match = match_events(rec.pickup_frames, rec.putdown_frames, periods.pickup, periods.putdown)
             events[name].append(match)
             segmented[name] = (found, decided, periods, match)
