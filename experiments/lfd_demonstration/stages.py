@@ -144,8 +144,10 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
         source = "classifier" if "classifier" in segmented else "ours"  # the periods the CHCRF labels
         found, decided, periods, match = segmented[source]
         held = in_periods(periods.pickup, periods.putdown, len(rec.left))
-        learned = learned_object_masks(clips and clips.pixels, int(script.person), out, held)
-        learned_ran |= learned is not None and source == "classifier"
+        learned = None  # the learned pixels are shown in the classifier's periods only
+        if source == "classifier":
+            learned = learned_object_masks(clips and clips.pixels, int(script.person), out, held)
+        learned_ran |= learned is not None
         masks = {"ours": out["ours"][0], "peer": out["peer"][0],
                  "learned": np.zeros_like(out["truth"]) if learned is None else learned,
                  "ours_in_periods": out["ours"][0] & held[:, None, None],
