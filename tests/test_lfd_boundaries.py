@@ -1,12 +1,13 @@
 """experiments.lfd_demonstration.boundaries: the hand's speed against a loop written out, boundaries moved to
-known slow frames, and the promises of the move on random periods (hypothesis)."""
+known slow frames, the promises of the move on random periods (hypothesis), and the frames of periods against
+a loop."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from experiments.lfd_demonstration.boundaries import hand_speed, snap_to_slowest
+from experiments.lfd_demonstration.boundaries import hand_speed, in_periods, snap_to_slowest
 from hog_jax.video import Periods
 
 
@@ -59,3 +60,13 @@ def test_moved_periods_stay_ordered_inside_their_share_and_no_faster(seed, n, be
         assert stops[k] - 1 - after <= got.putdown[k] - 1 <= stops[k] - 1 + before
         if np.isfinite(speed[starts[k]]) and got.pickup[k] != starts[k]:
             assert speed[got.pickup[k]] <= speed[starts[k]]
+
+
+def test_in_periods_marks_the_frames_of_each_period():
+    pickup, putdown = np.array([2, 7]), np.array([5, 8])
+    expected = np.zeros(10, bool)
+    for a, b in zip(pickup, putdown):
+        for t in range(a, b):
+            expected[t] = True
+    np.testing.assert_array_equal(in_periods(pickup, putdown, 10), expected)
+    assert not in_periods(np.zeros(0, int), np.zeros(0, int), 4).any()

@@ -1,13 +1,12 @@
 """experiments.lfd_demonstration.object_pixels: the position prior and the features against NumPy written out,
-the cues of a segmentation, an object recovered from a prior and its label on new windows, the frames of
-periods against a loop, and the errors."""
+the cues of a segmentation, an object recovered from a prior and its label on new windows, and the errors."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from experiments.lfd_demonstration.object_pixels import (CUE_CAP, MASK_LOG_ODDS, PixelCues, PixelFrames,
-                                                         fit_object_pixels, in_periods, object_pixel_log_odds,
+                                                         fit_object_pixels, object_pixel_log_odds,
                                                          object_pixel_masks, pixel_features, position_prior,
                                                          window_cues)
 from hog_jax.video import OBJECT, PERSON, SKIN, LogRatio, ObjectSegmentation
@@ -43,7 +42,8 @@ def test_window_cues_keep_valid_ratios_clipped_and_the_temporal_one_where_the_ha
     moved = np.array([False, True, False, True])
     seg = ObjectSegmentation(np.zeros((T,) + shape, bool), np.zeros(T, bool), moved, temporal, stereo)
     labels = rng.integers(-1, 4, size=(T,) + shape)
-    cues = window_cues(seg, labels)
+    centre = np.ones((T, 2))  # a 3 x 3 window around the middle of a 3 x 3 frame: the whole frame
+    cues = window_cues(seg, labels, centre, (1, 1))
     for t in range(T):
         for cue, source, gate in ((cues.temporal, temporal, moved[t]), (cues.stereo, stereo, True)):
             if t == 0:
@@ -54,7 +54,7 @@ def test_window_cues_keep_valid_ratios_clipped_and_the_temporal_one_where_the_ha
             np.testing.assert_allclose(cue[t].astype(np.float64), expected, atol=0.01)
     np.testing.assert_array_equal(cues.labels, labels)
     with pytest.raises(ValueError, match="labels"):
-        window_cues(seg, labels[:3])
+        window_cues(seg, labels[:3], centre[:3], (1, 1))
 
 
 def _windows(rng, n: int, label_rate: float) -> tuple[np.ndarray, PixelCues]:
@@ -97,12 +97,3 @@ def test_one_class_training_pixels_and_a_held_of_another_length_are_refused():
     with pytest.raises(ValueError, match="prior_log_odds"):
         pixel_features(np.zeros((9, 8)), cues)
 
-
-def test_in_periods_marks_the_frames_of_each_period():
-    pickup, putdown = np.array([2, 7]), np.array([5, 8])
-    expected = np.zeros(10, bool)
-    for a, b in zip(pickup, putdown):
-        for t in range(a, b):
-            expected[t] = True
-    np.testing.assert_array_equal(in_periods(pickup, putdown, 10), expected)
-    assert not in_periods(np.zeros(0, int), np.zeros(0, int), 4).any()

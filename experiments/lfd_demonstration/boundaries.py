@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from experiments.lfd_demonstration.object_pixels import in_periods
 from hog_jax.video import Periods
 from lfd_common import as_array, check_int
 
@@ -71,3 +70,10 @@ def snap_to_slowest(periods: Periods, speed: np.ndarray, before: int, after: int
         last = stops[k] - 1
         putdown[k] = _slowest(rate, max(last - ahead, pickup[k]), min(last + back, end - 1), last) + 1
     return Periods(pickup, putdown, in_periods(pickup, putdown, T))
+
+
+def in_periods(pickup: np.ndarray, putdown: np.ndarray, n_frames: int) -> np.ndarray:
+    """(n_frames,) bool: the frames of the periods [pickup, putdown) (`hog_jax.video.Periods`)."""
+    t = np.arange(check_int(n_frames, "n_frames", min_value=0))
+    starts, stops = np.asarray(pickup, int), np.asarray(putdown, int)
+    return ((t[None] >= starts[:, None]) & (t[None] < stops[:, None])).any(axis=0)

@@ -18,7 +18,7 @@ from experiments.data.video.settings import SOURCE_PACKAGES
 from experiments.lfd_demonstration.config import Config
 from experiments.lfd_demonstration.front import recording_objects
 from experiments.lfd_demonstration.features import (FeatureSpec, FrameFeatures, as_oac_data, hand_window_features,
-                                                    pipeline_features, renderer_features, segment_frames, windows)
+                                                    pipeline_features, renderer_features, segment_frames)
 from experiments.lfd_demonstration.object_pixels import PixelCues, PixelFrames, window_cues
 from lfd_common import Cache
 
@@ -95,9 +95,8 @@ def _clip_features(cfg: Config, settings, skin_model, spec: FeatureSpec, key: tu
                                     out["half"])
     held = np.asarray(rec.object) >= 0
     in_hand = InHandFrames(np.full(tracked.size, person), features, held[tracked])
-    cues = window_cues(out["objects"], windows(out["labels"], out["hand"], out["half"], fill=-1))
-    kept = np.flatnonzero(out["tracked"] & held)
-    pixels = PixelFrames(np.full(kept.size, person), out["truth"][kept], PixelCues(*(c[kept] for c in cues)))
+    cues = window_cues(out["objects"], out["labels"], out["hand"], out["half"])
+    pixels = PixelFrames(np.full(held.size, person), out["truth"], cues).take(np.flatnonzero(out["tracked"] & held))
     return ClipFeatures({"pipeline": pick(pipeline_features(out, spec)), "renderer": renderer}, True, in_hand, pixels)
 
 

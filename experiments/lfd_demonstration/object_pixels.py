@@ -24,8 +24,9 @@ from typing import NamedTuple
 import numpy as np
 
 import crf_jax
+from experiments.lfd_demonstration.features import windows
 from hog_jax.video import OBJECT, PERSON, SKIN, ObjectSegmentation
-from lfd_common import as_array, check_int, check_real
+from lfd_common import as_array, check_real
 
 # nats: a pixel is the object's where its log odds exceed this (p > 0.27); chosen on the validation recordings
 # (pooled IoU 0.41 / 0.44 at -1, 0.41 / 0.43 at -1.5, 0.37 / 0.41 at -0.5, 0.29 / - at 0: an IoU rewards
@@ -54,6 +55,10 @@ class PixelFrames(NamedTuple):
     truth: np.ndarray
     cues: PixelCues
 
+    def take(self, index) -> PixelFrames:
+        """The training windows at `index` (an index array or a slice over N)."""
+        return PixelFrames(self.person[index], self.truth[index], PixelCues(*(c[index] for c in self.cues)))
+
 
 class ObjectPixelModel(NamedTuple):
     """A per-pixel logistic regression on `pixel_features`.
@@ -67,13 +72,16 @@ class ObjectPixelModel(NamedTuple):
     prior_log_odds: np.ndarray
 
 
-def window_cues(objects: ObjectSegmentation, labels: np.ndarray) -> PixelCues:
+def window_cues(objects: ObjectSegmentation, labels: np.ndarray, centres: np.ndarray,
+                half: tuple[int, int]) -> PixelCues:
     """The `PixelCues` of a recording's T frames from its `segment_objects` result (cues of frames 1..T-1;
-    frame 0 gets 0) and the front end's labels in the same windows (T, h, w)."""
+    frame 0 gets 0) and the front end's labels (T, H, W) in the same windows: half sizes `half` around
+    centres (T, 2) (row, column), -1 outside the image."""
     moved = np.asarray(objects.hand_moved, bool)
-    regions = as_array(labels, "labels", ndim=3, dtype=np.int32)
-    if regions.shape[0] != moved.size:
-        raise ValueError(f"labels: expected {moved.size} windows, got {regions.shape[0]}")
+    frames = as_array(labels, "labels", ndim=3, dtype=np.int32)
+    if frames.shape[0] != moved.size:
+        raise ValueError(f"labels: expected {moved.size} frames, got {frames.shape[0]}")
+    regions = windows(frames, as_array(centres, "centres", shape=(moved.size, 2)), half, fill=-1)
 
     def cue(ratio, where):
         out = np.zeros(regions.shape, np.float16)
@@ -112,9 +120,9 @@ def fit_object_pixels(frames: PixelFrames, l2: float = 1.0) -> ObjectPixelModel:
         raise ValueError(f"frames: the training pixels need both classes, got {int(frames.truth.sum())} object "
                          f"pixels of {frames.truth.size}")
     step = -(-n * h * w // MAX_FIT_PIXELS)
-    picked = PixelCues(*(np.asarray(c)[::step] for c in frames.cues))
-    X = pixel_features(prior, picked).reshape(-1, N_FEATURES)
-    y = np.asarray(frames.truth[::step], np.int32).reshape(-1)
+    picked = frames.take(slice(None, None, step))
+    X = pixel_features(prior, picked.cues).reshape(-1, N_FEATURES)
+    y = np.asarray(picked.truth, np.int32).reshape(-1)
     fitted = crf_jax.fit_linear(X, y, l2=check_real(l2, "l2", min_value=0.0))
     return ObjectPixelModel(fitted.model, prior)
 
@@ -132,9 +140,3 @@ def object_pixel_masks(model: ObjectPixelModel, cues: PixelCues, held: np.ndarra
     in_hand = as_array(held, "held", shape=(np.shape(cues.labels)[0],), dtype=bool)
     return (object_pixel_log_odds(model, cues) > MASK_LOG_ODDS) & in_hand[:, None, None]
 
-
-def in_periods(pickup: np.ndarray, putdown: np.ndarray, n_frames: int) -> np.ndarray:
-    """(n_frames,) bool: the frames of the periods [pickup, putdown) (`hog_jax.video.Periods`)."""
-    t = np.arange(check_int(n_frames, "n_frames", min_value=0))
-    starts, stops = np.asarray(pickup, int), np.asarray(putdown, int)
-    return ((t[None] >= starts[:, None]) & (t[None] < stops[:, None])).any(axis=0)

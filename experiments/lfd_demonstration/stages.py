@@ -18,12 +18,11 @@ from experiments.lfd_demonstration.boundaries import (SEARCH_AFTER_S, SEARCH_BEF
                                                       snap_to_slowest)
 from experiments.lfd_demonstration.clips import ClipSet, InHandFrames, clip_stage, table_metrics, tables
 from experiments.lfd_demonstration.config import PRESETS, Config
-from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features, windows
+from experiments.lfd_demonstration.features import FeatureSpec, hand_window_features, pipeline_features
 from experiments.lfd_demonstration.in_hand import (EVIDENCE_CAP, SWITCH_COST_PER_FPS, fit_in_hand,
                                                   in_hand_log_odds, in_hand_path)
 from experiments.lfd_demonstration.labelling import label_metrics, label_periods
-from experiments.lfd_demonstration.object_pixels import (PixelCues, PixelFrames, fit_object_pixels, in_periods,
-                                                         object_pixel_masks, window_cues)
+from experiments.lfd_demonstration.object_pixels import PixelFrames, fit_object_pixels, object_pixel_masks, window_cues
 from experiments.lfd_demonstration.evaluate import EventMatch, held_object_motion, iou_by_bin, match_events, pooled_iou
 from experiments.lfd_demonstration.report import report
 from lfd_common import enable_compilation_cache
@@ -92,12 +91,11 @@ def classifier_in_hand(frames: InHandFrames | None, person: int, out: dict, fps:
 def learned_object_masks(pixels: PixelFrames | None, person: int, out: dict, held: np.ndarray) -> np.ndarray | None:
     """(T, h, w) the held object's pixels (`object_pixels`) in a recording's frames that `held` (T,) says
     hold an object, from the model fitted on the clips of the other persons; None without such clips."""
-    if pixels is None or not np.any(pixels.person != person):
+    others = np.zeros(0, int) if pixels is None else np.flatnonzero(pixels.person != person)
+    if others.size == 0:
         return None
-    others = np.flatnonzero(pixels.person != person)
-    model = fit_object_pixels(PixelFrames(pixels.person[others], pixels.truth[others],
-                                          PixelCues(*(c[others] for c in pixels.cues))))
-    cues = window_cues(out["objects"], windows(out["labels"], out["hand"], out["half"], fill=-1))
+    model = fit_object_pixels(pixels.take(others))
+    cues = window_cues(out["objects"], out["labels"], out["hand"], out["half"])
     return object_pixel_masks(model, cues, held & out["tracked"])
 
 
@@ -143,7 +141,7 @@ def object_stage(cfg: Config, settings, skin_model, clips: ClipSet | None = None
                         f"{name}_found_events": int(len(periods.pickup))})
         source = "classifier" if "classifier" in segmented else "ours"  # the periods the CHCRF labels
         found, decided, periods, match = segmented[source]
-        held = in_periods(periods.pickup, periods.putdown, len(rec.left))
+        held = periods.in_hand
         learned = None  # the learned pixels are shown in the classifier's periods only
         if source == "classifier":
             learned = learned_object_masks(clips and clips.pixels, int(script.person), out, held)
